@@ -1,0 +1,39 @@
+# Every target creates .venv if needed and installs what it uses: a fresh machine with
+# Python >= 3.11 needs nothing else.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed
+OUT    ?= out
+
+.PHONY: demo test bench bench-quality bench-speed lint clean
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+
+$(STAMP): pyproject.toml | $(PY)
+	$(PY) -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(PY) -m daemon demo --out $(OUT)/demo
+
+test: $(STAMP)
+	$(PY) -m ruff check .
+	$(PY) -m pytest -q
+
+bench: bench-quality bench-speed
+
+bench-quality: $(STAMP)
+	$(PY) -m bench.quality --scenes 120
+
+bench-speed: $(STAMP)
+	$(PY) -m bench.speed
+
+lint: $(STAMP)
+	$(PY) -m ruff check .
+	$(PY) -m ruff format --check .
+
+clean:
+	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache *.egg-info

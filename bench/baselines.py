@@ -1,0 +1,58 @@
+"""Baseline interest detectors scored beside the uncommon-map pipeline in the same run."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from daemon.vision.interest import InterestMap, InterestPoint, find_points
+from daemon.vision.params import VisionParams
+
+
+def spectral_residual(bgr: np.ndarray, width: int = 64) -> np.ndarray:
+    """Hou & Zhang (CVPR 2007) saliency: the spectral residual of the log amplitude.
+
+    Computed on a grey image scaled to ``width`` columns, as in the paper, then brought back
+    to the input size. Returns (M, N) float32.
+    """
+    rows, cols = bgr.shape[:2]
+    grey = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
+    w = min(width, cols)
+    h = max(1, round(rows * w / cols))
+    small = cv2.resize(grey, (w, h), interpolation=cv2.INTER_AREA)
+    spectrum = np.fft.fft2(small)
+    log_amp = np.log(np.abs(spectrum) + 1e-9)
+    phase = np.angle(spectrum)
+    residual = log_amp - cv2.blur(log_amp.astype(np.float32), (3, 3))
+    sal = np.abs(np.fft.ifft2(np.exp(residual + 1j * phase))) ** 2
+    sal = cv2.GaussianBlur(sal.astype(np.float32), (0, 0), 2.5)
+    return cv2.resize(sal, (cols, rows), interpolation=cv2.INTER_LINEAR)
+
+
+def rx_anomaly(bgr: np.ndarray) -> np.ndarray:
+    """Reed-Xiaoli global anomaly detector: Mahalanobis distance of each pixel's colour.
+
+    Returns (M, N) float32.
+    """
+    x = bgr.reshape(-1, 3).astype(np.float64)
+    mean = x.mean(axis=0)
+    cov = np.cov(x, rowvar=False) + np.eye(3) * 1e-3
+    d = x - mean
+    score = np.einsum("ij,jk,ik->i", d, np.linalg.inv(cov), d)
+    return score.reshape(bgr.shape[:2]).astype(np.float32)
+
+
+def points_from_map(saliency: np.ndarray, params: VisionParams, blur: bool) -> list[InterestPoint]:
+    """Pick points from a baseline map with the pipeline's own peak picker."""
+    grid = saliency.astype(np.float32)
+    if blur:
+        grid = cv2.GaussianBlur(grid, (0, 0), params.sigma)
+    return find_points(InterestMap(grid, 1, grid.shape), params)
+
+
+def random_points(shape: tuple[int, int], n: int, rng: np.random.Generator) -> list[InterestPoint]:
+    rows, cols = shape
+    return [
+        InterestPoint(i + 1, float(rng.uniform(0, cols)), float(rng.uniform(0, rows)), 0.0)
+        for i in range(n)
+    ]

@@ -1,0 +1,1 @@
+"""cyborgd: the rig's device daemon, offline analysis tools and the science core."""

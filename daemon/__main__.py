@@ -1,0 +1,67 @@
+"""``cyborgd``: the rig's command line (offline analysis and the demo for now)."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from pathlib import Path
+
+from .analyze import AnalyzeOptions, analyze_files
+from .demo import run_demo
+from .vision.params import PROFILES, profile
+
+
+def _analyze_parser(sub: argparse._SubParsersAction) -> None:
+    ap = sub.add_parser("analyze", help="find interest points in image files, write all products")
+    ap.add_argument("images", nargs="+", metavar="IMAGE")
+    ap.add_argument(
+        "--out",
+        type=Path,
+        default=Path("out/analyze"),
+        help="product folder (default: %(default)s)",
+    )
+    ap.add_argument("--profile", choices=sorted(PROFILES), default="default")
+    ap.add_argument("--top", type=int, default=None, metavar="N", help="number of interest points")
+    ap.add_argument(
+        "--downsample",
+        type=float,
+        default=1.0,
+        metavar="F",
+        help="reduce the image F times before analysis, as the seed did (4-8)",
+    )
+    ap.add_argument("--json", action="store_true", help="print one JSON object per image")
+
+
+def _demo_parser(sub: argparse._SubParsersAction) -> None:
+    ap = sub.add_parser("demo", help="generate an outcrop scene and analyse it with both profiles")
+    ap.add_argument("--out", type=Path, default=Path("out/demo"))
+    ap.add_argument("--seed", type=int, default=7)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="cyborgd", description=__doc__)
+    parser.add_argument("-v", "--verbose", action="store_true")
+    sub = parser.add_subparsers(dest="command", required=True)
+    _analyze_parser(sub)
+    _demo_parser(sub)
+    args = parser.parse_args(argv)
+    logging.basicConfig(
+        level=logging.DEBUG if args.verbose else logging.WARNING,
+        format="%(levelname)s %(name)s: %(message)s",
+    )
+    if args.command == "analyze":
+        if args.downsample <= 0:
+            parser.error("--downsample must be > 0")
+        params = profile(args.profile)
+        if args.top is not None:
+            if args.top < 0:
+                parser.error("--top must be >= 0")
+            params = params.replace(top_n=args.top)
+        opts = AnalyzeOptions(args.out, args.profile, params, args.downsample, args.json)
+        return analyze_files(args.images, opts)
+    return run_demo(args.out, args.seed)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,170 @@
+"""Offline analysis: run the science core on image files and write every product to disk."""
+
+from __future__ import annotations
+
+import json
+import logging
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TextIO
+
+import cv2
+import numpy as np
+
+from .imageio import ImageError, read_image, write_atomic, write_png
+from .vision import render
+from .vision.interest import PLANE_NAMES, describe
+from .vision.params import VisionParams
+from .vision.pipeline import Analysis, analyze, as_bgr8
+from .vision.uncommon import uncommon_map
+
+_LOGGER = logging.getLogger(__name__)
+
+__all__ = ["AnalyzeOptions", "analyze_files", "analyze_image", "write_products"]
+
+
+@dataclass(frozen=True)
+class AnalyzeOptions:
+    out: Path
+    profile: str
+    params: VisionParams
+    downsample: float = 1.0
+    json_lines: bool = False
+
+
+def analyze_image(
+    image: np.ndarray, params: VisionParams, downsample: float = 1.0
+) -> tuple[np.ndarray, Analysis]:
+    """Normalise, optionally reduce (as the seed did, 4-8x), analyse; returns (bgr, analysis)."""
+    bgr = as_bgr8(image)
+    work = bgr
+    if downsample != 1.0:
+        rows, cols = bgr.shape[:2]
+        size = (max(1, round(cols / downsample)), max(1, round(rows / downsample)))
+        work = cv2.resize(bgr, size, interpolation=cv2.INTER_AREA)
+    return bgr, analyze(work, params)
+
+
+def _to_input(value: float, scale: float) -> float:
+    """Analysed-pixel coordinate -> input-pixel coordinate (pixel centres line up)."""
+    return (value + 0.5) * scale - 0.5
+
+
+def result_document(
+    path: str, bgr: np.ndarray, res: Analysis, profile: str, products: dict[str, str]
+) -> dict[str, Any]:
+    """The ``result.json`` contents: points in input pixels, classes, parameters, timings."""
+    rows, cols = bgr.shape[:2]
+    arows, acols = res.hsi.i.shape
+    sx, sy = cols / acols, rows / arows
+    points = []
+    for p, expl in zip(res.points, res.explanations, strict=True):
+        points.append(
+            {
+                "rank": p.rank,
+                "x": round(_to_input(p.x, sx), 2),
+                "y": round(_to_input(p.y, sy), 2),
+                "score": round(p.score, 4),
+                "summary": describe(expl),
+                "explanation": expl,
+            }
+        )
+    classes = {
+        name: [
+            {"label": k, "value": seg.original_value(c.center), "radius": c.radius, "area": c.area}
+            for k, c in enumerate(seg.classes, start=1)
+        ]
+        for name, seg in zip(PLANE_NAMES, res.segmentations, strict=True)
+    }
+    return {
+        "image": path,
+        "width": cols,
+        "height": rows,
+        "analysed": {"width": acols, "height": arows},
+        "profile": profile,
+        "params": res.params.to_dict(),
+        "points": points,
+        "classes": classes,
+        "timing_ms": {k: round(v, 3) for k, v in res.timings_ms.items()},
+        "products": products,
+    }
+
+
+def write_products(
+    folder: Path, path: str, bgr: np.ndarray, res: Analysis, profile: str
+) -> dict[str, Any]:
+    """Write planes, segmentations, co-occurrence plots, maps, overlay and result.json."""
+    params = res.params
+    products: dict[str, str] = {}
+
+    def put(name: str, image: np.ndarray) -> None:
+        write_png(folder / name, image)
+        products[name.removesuffix(".png")] = name
+
+    for name, plane, seg in zip(PLANE_NAMES, res.hsi.planes, res.segmentations, strict=True):
+        low = name.lower()
+        put(f"plane_{low}.png", plane)
+        put(f"segmentation_{low}.png", render.segmentation_image(seg))
+        put(f"cooccurrence_{low}.png", render.cooccurrence_plot(seg))
+        put(f"uncommon_{low}.png", render.grey_ramp(uncommon_map(seg, params), vmax=8.0))
+    interest = np.maximum(res.interest.full(), 0.0)
+    put("interest.png", render.grey_ramp(interest))
+    scale = bgr.shape[1] / res.hsi.i.shape[1]
+    put("overlay.png", render.overlay(bgr, res.points, radius=max(params.blur, 6.0), scale=scale))
+    doc = result_document(path, bgr, res, profile, products)
+    write_atomic(folder / "result.json", (json.dumps(doc, indent=2) + "\n").encode())
+    return doc
+
+
+def _folder_for(out: Path, path: str, used: set[str]) -> Path:
+    stem = Path(path).stem or "image"
+    name, n = stem, 1
+    while name in used:
+        n += 1
+        name = f"{stem}-{n}"
+    used.add(name)
+    return out / name
+
+
+def analyze_files(
+    paths: list[str], opts: AnalyzeOptions, stdout: TextIO = sys.stdout, stderr: TextIO = sys.stderr
+) -> int:
+    """Analyse each file; a bad file gets one line on stderr and the rest go on.
+
+    Returns the process exit status: 0 if every file was analysed, 1 otherwise.
+    """
+    failed = 0
+    used: set[str] = set()
+    for path in paths:
+        try:
+            image = read_image(path)
+            t0 = time.perf_counter()
+            bgr, res = analyze_image(image, opts.params, opts.downsample)
+            elapsed = (time.perf_counter() - t0) * 1e3
+            folder = _folder_for(opts.out, path, used)
+            doc = write_products(folder, path, bgr, res, opts.profile)
+        except ImageError as exc:
+            failed += 1
+            print(f"cyborgd analyze: {exc}", file=stderr)
+            continue
+        except OSError as exc:
+            failed += 1
+            print(f"cyborgd analyze: {path}: cannot write products: {exc}", file=stderr)
+            continue
+        if opts.json_lines:
+            line = {
+                "image": path,
+                "width": doc["width"],
+                "height": doc["height"],
+                "points": [{k: p[k] for k in ("rank", "x", "y", "score")} for p in doc["points"]],
+                "timing_ms": round(elapsed, 3),
+            }
+            print(json.dumps(line), file=stdout, flush=True)
+        else:
+            best = ", ".join(
+                f"#{p['rank']} ({p['x']:.0f}, {p['y']:.0f}) {p['score']:.2f}" for p in doc["points"]
+            )
+            print(f"{path}: {best or 'no interest points'} -> {folder}/", file=stdout, flush=True)
+    return 1 if failed else 0

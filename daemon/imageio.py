@@ -1,0 +1,82 @@
+"""Reading images from disk with one clear error per bad file, and atomic product writes."""
+
+from __future__ import annotations
+
+import os
+import struct
+import tempfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+__all__ = ["MAX_PIXELS", "ImageError", "read_image", "write_atomic", "write_png"]
+
+MAX_PIXELS = 400_000_000
+"""Refuse images above this many pixels (an 8000x4000 panorama is 32 M)."""
+
+
+class ImageError(ValueError):
+    """A file that cannot be analysed; the message names the file and the reason."""
+
+
+def _png_size(head: bytes) -> tuple[int, int] | None:
+    """(width, height) from a PNG header, read before decoding (decompression bombs)."""
+    if head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR":
+        return struct.unpack(">II", head[16:24])
+    return None
+
+
+def read_image(path: str | os.PathLike[str], max_pixels: int = MAX_PIXELS) -> np.ndarray:
+    """Decode an image file as-is (any depth and channel count OpenCV reads).
+
+    Raises ImageError for a missing, unreadable, empty, non-image or oversized file.
+    """
+    p = Path(path)
+    try:
+        data = p.read_bytes()
+    except FileNotFoundError:
+        raise ImageError(f"{p}: no such file") from None
+    except IsADirectoryError:
+        raise ImageError(f"{p}: is a directory") from None
+    except OSError as exc:
+        raise ImageError(f"{p}: cannot read: {exc.strerror or exc}") from None
+    if not data:
+        raise ImageError(f"{p}: empty file")
+    size = _png_size(data[:24])
+    if size and size[0] * size[1] > max_pixels:
+        raise ImageError(f"{p}: {size[0]}x{size[1]} is too large (limit {max_pixels} pixels)")
+    try:
+        img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    except cv2.error as exc:
+        raise ImageError(f"{p}: cannot decode: {str(exc).strip().splitlines()[-1]}") from None
+    if img is None or img.size == 0:
+        raise ImageError(f"{p}: not an image in a format OpenCV can read")
+    if img.shape[0] * img.shape[1] > max_pixels:
+        raise ImageError(
+            f"{p}: {img.shape[1]}x{img.shape[0]} is too large (limit {max_pixels} pixels)"
+        )
+    return img
+
+
+def write_atomic(path: Path, data: bytes) -> None:
+    """Write a file so that readers see the old file or the whole new one, never a part."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_png(path: Path, image: np.ndarray) -> None:
+    """Encode and write a PNG atomically."""
+    ok, buf = cv2.imencode(".png", image)
+    if not ok:
+        raise OSError(f"{path}: PNG encoding failed")
+    write_atomic(path, buf.tobytes())

@@ -1,0 +1,1 @@
+"""The science core: pure numpy/OpenCV functions, arrays in, new arrays out."""

@@ -1,0 +1,337 @@
+"""Co-occurrence-histogram segmentation of one 8-bit plane (after Haddon & Boyce 1990).
+
+Pairs of 4-neighbours (a, b) are counted symmetrically in a 256x256 histogram. Pixels inside
+uniform regions give pairs near the diagonal, so each region type is a peak on the diagonal;
+pairs across boundaries fall off it. A *class* is a diagonal peak (at most 8); its region of
+(value, neighbour value) space is the disc of radius r around (g, g), where r is the peak's
+half-width at half-maximum, intersected with the values nearer to g than to any other peak
+(so class regions never overlap). A pixel joins class k when at least ``min_votes`` of its
+4 neighbour pairs fall in disc k; otherwise it stays **unsegmented** (label 0, drawn black).
+Labels 1..K are ordered by class area: 1 is the largest class.
+
+Fast labelling: each value v of class k is coded as u(v) = 32 k + q(v) and
+w(v) = 32 k + 16 - q(v), with q(v) = round(15 (v - g)^2 / r^2) <= 15. A pair (a, b) lies in
+the disc of a common class exactly when the saturating difference w(b) - u(a) is in 1..16,
+so the test is two SIMD passes per direction (the disc edge is resolved to r^2 / 15).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .params import VisionParams
+
+__all__ = [
+    "PlaneClass",
+    "Segmentation",
+    "cooccurrence_histogram",
+    "find_classes",
+    "segment_plane",
+]
+
+_NONE = 255
+
+
+@dataclass(frozen=True)
+class PlaneClass:
+    """One class of a plane: a disc on the co-occurrence diagonal."""
+
+    center: int
+    """Grey value of the diagonal peak, in the (possibly hue-rotated) segmented coding."""
+    radius: int
+    height: float
+    """Height of the smoothed diagonal profile at the peak."""
+    area: int = 0
+    """Number of pixels labelled with this class."""
+
+
+@dataclass(frozen=True)
+class Segmentation:
+    """Result of :func:`segment_plane`."""
+
+    labels: np.ndarray
+    """(M, N) uint8: 0 = unsegmented, k = 1..K the class of area rank k (1 = largest)."""
+    classes: tuple[PlaneClass, ...]
+    """Class k is ``classes[k - 1]``; areas are non-increasing."""
+    histogram: np.ndarray
+    """(256, 256) float32 symmetric pair counts (before smoothing), for plots."""
+    offset: int = 0
+    """The plane was segmented as (value + offset) mod 256 (hue rotation)."""
+
+    @property
+    def k(self) -> int:
+        return len(self.classes)
+
+    def original_value(self, coded: int) -> int:
+        """Map a value in segmented coding back to the plane's own coding."""
+        return (coded - self.offset) % 256
+
+
+def cooccurrence_histogram(
+    plane: np.ndarray, mask: np.ndarray | None = None, max_pairs: int = 1 << 22
+) -> np.ndarray:
+    """Count 4-neighbour value pairs of a plane, symmetrically.
+
+    Parameters
+    ----------
+    plane : (M, N) uint8 ndarray
+    mask : (M, N) bool ndarray, optional
+        Only pairs whose two pixels are both in the mask are counted.
+    max_pairs : int
+        Above this many pairs, rows are taken on a regular lattice (a deterministic
+        estimate; the histogram is a density and a few million pairs resolve it).
+
+    Returns
+    -------
+    (256, 256) float32 ndarray
+        ``hist[a, b]`` counts pairs (a, b) and (b, a); the sum is twice the pairs used.
+
+    Examples
+    --------
+    >>> plane = np.array([[1, 1], [1, 2]], np.uint8)
+    >>> h = cooccurrence_histogram(plane)
+    >>> int(h[1, 1]), int(h[1, 2]), int(h[2, 1]), int(h.sum())
+    (4, 2, 2, 8)
+    """
+    if plane.ndim != 2:
+        raise ValueError(f"expected an (M, N) plane, got shape {plane.shape}")
+    if plane.dtype != np.uint8:
+        raise ValueError(f"expected uint8, got {plane.dtype}")
+    rows, cols = plane.shape
+    total = rows * (cols - 1) + (rows - 1) * cols
+    step = max(1, -(-total // max_pairs))
+    hist = np.zeros((256, 256), np.float32)
+    m8 = None if mask is None else mask.astype(np.uint8)
+    pairs = (
+        (
+            plane[::step, :-1],
+            plane[::step, 1:],
+            None if m8 is None else m8[::step, :-1] & m8[::step, 1:],
+        ),
+        (plane[:-1:step], plane[1::step], None if m8 is None else m8[:-1:step] & m8[1::step]),
+    )
+    for first, second, both in pairs:
+        if first.size == 0:
+            continue
+        hist += cv2.calcHist(
+            [np.ascontiguousarray(first), np.ascontiguousarray(second)],
+            [0, 1],
+            None if both is None else np.ascontiguousarray(both),
+            [256, 256],
+            [0, 256, 0, 256],
+        )
+    return hist + hist.T
+
+
+def _diagonal_profile(smooth: np.ndarray, band: int) -> np.ndarray:
+    prof = np.zeros(256, np.float64)
+    for d in range(-band, band + 1):
+        diag = np.diagonal(smooth, offset=d).astype(np.float64)
+        if d >= 0:
+            prof[: 256 - d] += diag
+        else:
+            prof[-d:] += diag
+    return prof
+
+
+def _half_width(prof: np.ndarray, g: int) -> float:
+    """Half-width at half-maximum of the peak at g; a side that runs into a higher peak
+    before falling to half does not count, a side that runs off the scale ends there."""
+    half = prof[g] / 2.0
+    widths = []
+    for direction in (-1, 1):
+        x = g
+        climbed = False
+        while 0 <= x + direction < 256 and prof[x + direction] > half:
+            if prof[x + direction] > prof[g]:
+                climbed = True
+                break
+            x += direction
+        if not climbed:
+            widths.append(abs(x - g) + 0.5)
+    return min(widths) if widths else 0.0
+
+
+def find_classes(hist: np.ndarray, params: VisionParams) -> tuple[PlaneClass, ...]:
+    """Find the region classes of a co-occurrence histogram (peaks on its diagonal).
+
+    Parameters
+    ----------
+    hist : (256, 256) float ndarray
+        Symmetric pair counts from :func:`cooccurrence_histogram`.
+    params : VisionParams
+        Uses ``cooc_sigma``, ``diag_band``, ``max_classes``, ``min_class_fraction``,
+        ``radius_scale``, ``radius_min`` and ``radius_max``.
+
+    Returns
+    -------
+    tuple of PlaneClass
+        At most ``max_classes`` classes, highest peak first, ``area`` still 0.
+
+    Examples
+    --------
+    >>> from daemon.vision.params import PAPER
+    >>> plane = np.repeat(np.array([[40] * 30 + [200] * 10], np.uint8), 20, axis=0)
+    >>> [(c.center, c.radius) for c in find_classes(cooccurrence_histogram(plane), PAPER)]
+    [(40, 3), (200, 3)]
+    """
+    if hist.shape != (256, 256):
+        raise ValueError(f"expected a (256, 256) histogram, got {hist.shape}")
+    smooth = hist.astype(np.float32)
+    if params.cooc_sigma > 0:
+        smooth = cv2.GaussianBlur(smooth, (0, 0), params.cooc_sigma)
+    prof = _diagonal_profile(smooth, params.diag_band)
+    mass = prof.sum()
+    if mass <= 0:
+        return ()
+    left = np.concatenate([[-1.0], prof[:-1]])
+    right = np.concatenate([prof[1:], [-1.0]])
+    maxima = np.flatnonzero((prof > 0) & (prof >= left) & (prof > right))
+    spacing = 2 * params.radius_min
+    chosen: list[PlaneClass] = []
+    for g in sorted(maxima.tolist(), key=lambda v: (-prof[v], v)):
+        if any(abs(g - c.center) < spacing for c in chosen):
+            continue
+        hwhm = _half_width(prof, g) * params.radius_scale
+        r = int(np.clip(round(hwhm), params.radius_min, params.radius_max))
+        share = prof[max(0, g - r) : g + r + 1].sum() / mass
+        if share < params.min_class_fraction:
+            continue
+        chosen.append(PlaneClass(center=g, radius=r, height=float(prof[g])))
+        if len(chosen) == params.max_classes:
+            break
+    return tuple(chosen)
+
+
+def _value_tables(classes: tuple[PlaneClass, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-value class id (1-based, 0 = none) and the u/w pair codes of the module docstring."""
+    values = np.arange(256)
+    best = np.full(256, np.inf)
+    cls = np.zeros(256, np.uint8)
+    q = np.zeros(256, np.int64)
+    for k, c in enumerate(classes, start=1):
+        dist = np.abs(values - c.center)
+        inside = (dist <= c.radius) & (dist < best)
+        best[inside] = dist[inside]
+        cls[inside] = k
+        q[inside] = np.rint(15.0 * dist[inside] ** 2 / c.radius**2)
+    q = np.minimum(q, 15)
+    has = cls > 0
+    base = 32 * (cls.astype(np.int64) - 1)
+    u = np.where(has, base + q, _NONE).astype(np.uint8)
+    w = np.where(has, base + 16 - q, 0).astype(np.uint8)
+    return cls, u, w
+
+
+def _vote(plane: np.ndarray, u_lut: np.ndarray, w_lut: np.ndarray, min_votes: int) -> np.ndarray:
+    """uint8 mask (255 = enough neighbour pairs inside the pixel's class disc)."""
+    u = cv2.LUT(plane, u_lut)
+    w = cv2.LUT(plane, w_lut)
+    count = np.zeros(plane.shape, np.uint8)
+    if plane.shape[1] > 1:
+        h = cv2.inRange(cv2.subtract(w[:, 1:], u[:, :-1]), 1, 16)
+        h >>= 7
+        count[:, :-1] += h
+        count[:, 1:] += h
+    if plane.shape[0] > 1:
+        v = cv2.inRange(cv2.subtract(w[1:], u[:-1]), 1, 16)
+        v >>= 7
+        count[:-1] += v
+        count[1:] += v
+    # Border pixels lack one or two pairs: one free vote makes "3 of 4" read "2 of 3"
+    # on edges and "2 of 2" in corners.
+    count[0] += 1
+    count[-1] += 1 if plane.shape[0] > 1 else 0
+    count[1:-1, 0] += 1
+    count[1:-1, -1] += 1 if plane.shape[1] > 1 else 0
+    return cv2.compare(count, min_votes, cv2.CMP_GE)
+
+
+def _relax(raw: np.ndarray, candidate: np.ndarray) -> np.ndarray:
+    """One pass: an unsegmented pixel joins its value's class if >= 2 neighbours hold it."""
+    padded = cv2.copyMakeBorder(raw, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
+    agree = np.zeros(raw.shape, np.uint8)
+    for dy, dx in ((0, 1), (2, 1), (1, 0), (1, 2)):
+        shifted = padded[dy : dy + raw.shape[0], dx : dx + raw.shape[1]]
+        agree += (shifted == candidate).view(np.uint8)
+    join = (raw == 0) & (candidate > 0) & (agree >= 2)
+    return np.where(join, candidate, raw)
+
+
+def segment_plane(
+    plane: np.ndarray,
+    params: VisionParams,
+    mask: np.ndarray | None = None,
+    offset: int = 0,
+) -> Segmentation:
+    """Segment one 8-bit plane into at most 8 classes plus unsegmented pixels.
+
+    Parameters
+    ----------
+    plane : (M, N) uint8 ndarray
+        Not modified.
+    params : VisionParams
+    mask : (M, N) bool ndarray, optional
+        Pixels outside the mask are never labelled and their pairs are not counted.
+    offset : int
+        Segment (plane + offset) mod 256 instead (hue rotation); recorded in the result.
+
+    Returns
+    -------
+    Segmentation
+
+    Examples
+    --------
+    >>> from daemon.vision.params import PAPER
+    >>> plane = np.full((20, 40), 40, np.uint8)
+    >>> plane[:, 30:] = 200
+    >>> plane[:, 10] = 120                        # a one-pixel line is no region
+    >>> seg = segment_plane(plane, PAPER)
+    >>> [(c.center, c.area) for c in seg.classes]
+    [(40, 580), (200, 200)]
+    >>> seg.labels[5, [0, 10, 29, 30, 39]].tolist()
+    [1, 0, 1, 2, 2]
+    """
+    if plane.ndim != 2:
+        raise ValueError(f"expected an (M, N) plane, got shape {plane.shape}")
+    if plane.dtype != np.uint8:
+        raise ValueError(f"expected uint8, got {plane.dtype}")
+    # numpy uint8 addition wraps modulo 256, which is the hue rotation we want.
+    coded = plane if offset % 256 == 0 else plane + np.uint8(offset % 256)
+    hist = cooccurrence_histogram(coded, mask, params.cooc_max_pairs)
+    classes = find_classes(hist, params)
+    if not classes:
+        return Segmentation(np.zeros(plane.shape, np.uint8), (), hist, offset % 256)
+    cls, u_lut, w_lut = _value_tables(classes)
+    candidate = cv2.LUT(coded, cls)
+    ok = _vote(coded, u_lut, w_lut, params.min_votes)
+    if mask is not None:
+        ok[~mask] = 0
+    raw = cv2.bitwise_and(candidate, ok)
+    for _ in range(params.relax_passes):
+        raw = _relax(raw, candidate if mask is None else np.where(mask, candidate, 0))
+    areas = _class_areas(coded, raw, cls, len(classes))
+    order = sorted(
+        range(len(classes)),
+        key=lambda i: (-areas[i], -classes[i].height, classes[i].center),
+    )
+    order = [i for i in order if areas[i] > 0]
+    to_rank = np.zeros(256, np.uint8)
+    for rank, i in enumerate(order, start=1):
+        to_rank[i + 1] = rank
+    labels = cv2.LUT(raw, to_rank)
+    ranked = tuple(
+        PlaneClass(classes[i].center, classes[i].radius, classes[i].height, int(areas[i]))
+        for i in order
+    )
+    return Segmentation(labels, ranked, hist, offset % 256)
+
+
+def _class_areas(coded: np.ndarray, raw: np.ndarray, cls: np.ndarray, k: int) -> np.ndarray:
+    """Pixels per class; a label is always its value's class, so a value histogram suffices."""
+    labelled = cv2.compare(raw, 0, cv2.CMP_GT)
+    value_hist = cv2.calcHist([coded], [0], labelled, [256], [0, 256]).ravel()
+    return np.bincount(cls, weights=value_hist, minlength=k + 1)[1:].astype(np.int64)

@@ -1,0 +1,116 @@
+"""The whole science core on one image: HSI -> segmentations -> uncommon -> interest -> points."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from .cooccurrence import Segmentation, segment_plane
+from .hsi import HSIPlanes, hue_histogram_rotation, rgb_to_hsi
+from .interest import InterestMap, InterestPoint, explain_point, find_points, interest_map
+from .params import VisionParams
+
+__all__ = ["Analysis", "analyze", "as_bgr8"]
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """Everything the pipeline computed for one image (analysed-image pixel coordinates)."""
+
+    hsi: HSIPlanes
+    segmentations: tuple[Segmentation, Segmentation, Segmentation]
+    interest: InterestMap
+    points: list[InterestPoint]
+    explanations: list[list[dict]]
+    params: VisionParams
+    timings_ms: dict[str, float] = field(default_factory=dict)
+
+
+def as_bgr8(image: np.ndarray) -> np.ndarray:
+    """Bring any decoded image to (M, N, 3) uint8 BGR: grey, alpha and 16-bit welcome.
+
+    Examples
+    --------
+    >>> as_bgr8(np.full((2, 2), 65535, np.uint16))[0, 0].tolist()
+    [255, 255, 255]
+    >>> as_bgr8(np.zeros((1, 1, 4), np.uint8)).shape
+    (1, 1, 3)
+    """
+    if image.ndim not in (2, 3) or image.size == 0:
+        raise ValueError(f"not an image: shape {image.shape}")
+    if image.dtype == np.uint16:
+        image = (image >> 8).astype(np.uint8)
+    elif image.dtype in (np.float32, np.float64):
+        image = np.clip(np.nan_to_num(image) * 255.0, 0, 255).astype(np.uint8)
+    elif image.dtype != np.uint8:
+        raise ValueError(f"unsupported pixel type {image.dtype}")
+    if image.ndim == 2:
+        return cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+    channels = image.shape[2]
+    if channels == 1:
+        return cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+    if channels == 3:
+        return np.ascontiguousarray(image)
+    if channels == 4:
+        return cv2.cvtColor(image, cv2.COLOR_BGRA2BGR)
+    raise ValueError(f"unsupported channel count {channels}")
+
+
+def analyze(bgr: np.ndarray, params: VisionParams) -> Analysis:
+    """Find the most uncommon regions of a colour image.
+
+    Parameters
+    ----------
+    bgr : (M, N, 3) uint8 ndarray
+        A frame or a quasi-mosaic, B, G, R order (use :func:`as_bgr8` first). Not modified.
+    params : VisionParams
+
+    Returns
+    -------
+    Analysis
+        Points are best first, in (x = column, y = row) pixels of ``bgr``.
+
+    Examples
+    --------
+    >>> from daemon.vision.params import PAPER
+    >>> img = np.full((90, 120, 3), (60, 110, 160), np.uint8)    # buff rock
+    >>> img[40:50, 80:90] = (40, 160, 40)                          # a green plant
+    >>> res = analyze(img, PAPER)
+    >>> p = res.points[0]
+    >>> abs(p.x - 84.5) < 1 and abs(p.y - 44.5) < 1                # the plant's centre
+    True
+    """
+    if bgr.ndim != 3 or bgr.shape[2] != 3 or bgr.dtype != np.uint8:
+        raise ValueError(f"expected (M, N, 3) uint8, got {bgr.shape} {bgr.dtype}")
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    if params.presmooth > 0:
+        bgr = cv2.GaussianBlur(bgr, (0, 0), params.presmooth)
+    hsi = rgb_to_hsi(bgr, params.grey_saturation, params.hue_min_intensity)
+    t1 = time.perf_counter()
+    timings["hsi"] = (t1 - t0) * 1e3
+    hue, hue_mask = hsi.h, None
+    if params.hue_grey == "unsegmented":
+        hue_mask = hsi.hue_defined
+    offset = hue_histogram_rotation(hsi.h, hsi.hue_defined) if params.hue_rotate else 0
+    if params.hue_grey == "class":
+        # After rotation by ``offset`` grey pixels sit at code 0, the emptiest hue.
+        hue = np.where(hsi.hue_defined, hsi.h, np.uint8((256 - offset) % 256))
+    segs = (
+        segment_plane(hue, params, mask=hue_mask, offset=offset),
+        segment_plane(hsi.s, params),
+        segment_plane(hsi.i, params),
+    )
+    t2 = time.perf_counter()
+    timings["segment"] = (t2 - t1) * 1e3
+    imap = interest_map(segs, params)
+    points = find_points(imap, params)
+    t3 = time.perf_counter()
+    timings["interest"] = (t3 - t2) * 1e3
+    explanations = [explain_point(p, segs, params) for p in points]
+    timings["explain"] = (time.perf_counter() - t3) * 1e3
+    timings["total"] = (time.perf_counter() - t0) * 1e3
+    return Analysis(hsi, segs, imap, points, explanations, params, timings)

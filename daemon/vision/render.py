@@ -1,0 +1,111 @@
+"""Pictures of the science products, drawn the way the seed papers drew them."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .cooccurrence import Segmentation
+from .interest import InterestPoint
+
+__all__ = [
+    "CLASS_COLOURS",
+    "POINT_COLOURS",
+    "cooccurrence_plot",
+    "grey_ramp",
+    "overlay",
+    "segmentation_image",
+]
+
+CLASS_COLOURS_RGB = (
+    (255, 0, 0),  # red: largest class
+    (0, 0, 255),  # blue
+    (160, 32, 240),  # purple
+    (0, 200, 0),  # green
+    (0, 255, 255),  # cyan
+    (255, 255, 0),  # yellow
+    (255, 255, 255),  # white
+    (255, 165, 0),  # orange: smallest of 8
+)
+CLASS_COLOURS = tuple((b, g, r) for r, g, b in CLASS_COLOURS_RGB)
+"""BGR colour of class k at index k - 1, in the paper's order by class area."""
+
+POINT_COLOURS = ((0, 255, 0), (255, 0, 0), (0, 0, 255))
+"""BGR: green = 1st, blue = 2nd, red = 3rd interest point."""
+
+_LUT = np.zeros((256, 1, 3), np.uint8)
+for _k, _c in enumerate(CLASS_COLOURS, start=1):
+    _LUT[_k, 0] = _c
+
+
+def segmentation_image(seg: Segmentation) -> np.ndarray:
+    """Colour-code a segmentation: (M, N, 3) uint8 BGR, black = unsegmented.
+
+    Examples
+    --------
+    >>> seg = Segmentation(np.array([[0, 1, 2]], np.uint8), (), np.zeros((256, 256), np.float32))
+    >>> segmentation_image(seg)[0].tolist()
+    [[0, 0, 0], [0, 0, 255], [255, 0, 0]]
+    """
+    return cv2.LUT(cv2.merge([seg.labels] * 3), _LUT)
+
+
+def grey_ramp(values: np.ndarray, vmax: float | None = None) -> np.ndarray:
+    """Map values 0..vmax linearly to grey 0..255: (M, N) uint8.
+
+    Examples
+    --------
+    >>> grey_ramp(np.array([[0.0, 4.0, 8.0]]), vmax=8).tolist()
+    [[0, 128, 255]]
+    """
+    top = float(values.max()) if vmax is None else float(vmax)
+    if top <= 0:
+        return np.zeros(values.shape, np.uint8)
+    return cv2.convertScaleAbs(values.astype(np.float32), alpha=255.0 / top)
+
+
+def cooccurrence_plot(seg: Segmentation, size: int = 512) -> np.ndarray:
+    """The pair histogram on a log scale with each class's disc in its colour.
+
+    Row = first value (top = 0), column = neighbour value; (size, size, 3) uint8 BGR.
+    """
+    hist = np.log1p(seg.histogram.astype(np.float32))
+    img = grey_ramp(hist)
+    img = cv2.resize(img, (size, size), interpolation=cv2.INTER_NEAREST)
+    img = cv2.applyColorMap(img, cv2.COLORMAP_BONE)
+    scale = size / 256.0
+    for k, cls in enumerate(seg.classes, start=1):
+        centre = (round((cls.center + 0.5) * scale),) * 2
+        cv2.circle(
+            img, centre, max(2, round(cls.radius * scale)), CLASS_COLOURS[k - 1], 2, cv2.LINE_AA
+        )
+    cv2.line(img, (0, 0), (size - 1, size - 1), (80, 80, 80), 1)
+    return img
+
+
+def overlay(
+    bgr: np.ndarray, points: list[InterestPoint], radius: float = 10.0, scale: float = 1.0
+) -> np.ndarray:
+    """Draw the interest points on a copy of the image, best first (green, blue, red).
+
+    ``scale`` converts point coordinates to ``bgr`` pixels (input vs analysed image).
+    """
+    out = bgr.copy()
+    thick = max(1, round(min(out.shape[:2]) / 200))
+    for p in points:
+        colour = POINT_COLOURS[p.rank - 1] if p.rank <= len(POINT_COLOURS) else (0, 255, 255)
+        centre = (round(p.x * scale), round(p.y * scale))
+        r = max(3, round(radius * scale))
+        cv2.circle(out, centre, r, (0, 0, 0), thick + 2, cv2.LINE_AA)
+        cv2.circle(out, centre, r, colour, thick, cv2.LINE_AA)
+        cv2.putText(
+            out,
+            str(p.rank),
+            (centre[0] + r, centre[1] - r),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            0.4 * thick,
+            colour,
+            thick,
+            cv2.LINE_AA,
+        )
+    return out

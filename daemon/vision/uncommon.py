@@ -1,0 +1,80 @@
+"""Uncommon maps: each pixel scored by how rare its class is in its plane.
+
+The seed: classes ranked by area, the ranking reversed linearly, so the largest class scores
+1 and the smallest K (<= 8). Unsegmented pixels score 0 (they are drawn black and must not
+attract interest). Variants, all monotone in class area so still "uncommon maps":
+
+* ``rank``: r in 1..K (the seed).
+* ``spread``: 1 + 7 (r - 1) / (K - 1), so the rarest class always scores 8.
+* ``surprisal``: 1 + 7 log(A_1 / A_k) / log(span), clipped to 1..8, so a tiny class scores
+  far above a mid-sized one instead of one rank step above it.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .cooccurrence import Segmentation
+from .params import VisionParams
+
+__all__ = ["uncommon_map", "uncommon_values"]
+
+
+def uncommon_values(seg: Segmentation, params: VisionParams) -> np.ndarray:
+    """Uncommon value of each label: a float64 array of 256, entry 0 (unsegmented) = 0.
+
+    Examples
+    --------
+    >>> from daemon.vision.cooccurrence import PlaneClass
+    >>> from daemon.vision.params import PAPER
+    >>> cls = tuple(PlaneClass(c, 3, 1.0, a) for c, a in [(10, 900), (90, 90), (200, 9)])
+    >>> seg = Segmentation(np.zeros((1, 1), np.uint8), cls, np.zeros((256, 256), np.float32))
+    >>> uncommon_values(seg, PAPER)[:4].tolist()
+    [0.0, 1.0, 2.0, 3.0]
+    >>> uncommon_values(seg, PAPER.replace(uncommon="surprisal"))[:4].round(2).tolist()
+    [0.0, 1.0, 3.33, 5.67]
+    """
+    values = np.zeros(256, np.float64)
+    k = seg.k
+    if k == 0:
+        return values
+    ranks = np.arange(1, k + 1, dtype=np.float64)
+    if params.uncommon == "rank":
+        scores = ranks
+    elif params.uncommon == "spread":
+        scores = np.ones(k) if k == 1 else 1.0 + 7.0 * (ranks - 1.0) / (k - 1.0)
+    else:
+        areas = np.array([max(c.area, 1) for c in seg.classes], np.float64)
+        ratio = np.log(areas[0] / areas) / np.log(params.surprisal_span)
+        scores = 1.0 + 7.0 * np.clip(ratio, 0.0, 1.0)
+    values[1 : k + 1] = scores
+    return values
+
+
+def uncommon_map(seg: Segmentation, params: VisionParams) -> np.ndarray:
+    """Score every pixel of a segmentation by the rarity of its class.
+
+    Parameters
+    ----------
+    seg : Segmentation
+    params : VisionParams
+        Uses ``uncommon`` and ``surprisal_span``.
+
+    Returns
+    -------
+    (M, N) float32 ndarray
+        0 for unsegmented pixels, else 1..8.
+
+    Examples
+    --------
+    >>> from daemon.vision.cooccurrence import segment_plane
+    >>> from daemon.vision.params import PAPER
+    >>> plane = np.full((20, 40), 40, np.uint8)
+    >>> plane[:, 30:] = 200
+    >>> umap = uncommon_map(segment_plane(plane, PAPER), PAPER)
+    >>> umap[0, [0, 39]].tolist()
+    [1.0, 2.0]
+    """
+    table = uncommon_values(seg, params).astype(np.float32)
+    return cv2.LUT(seg.labels, table)
