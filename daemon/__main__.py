@@ -7,6 +7,8 @@ import logging
 import sys
 from pathlib import Path
 
+import cv2
+
 from .analyze import AnalyzeOptions, analyze_files
 from .demo import run_demo
 from .vision.params import PROFILES, profile
@@ -50,6 +52,9 @@ def main(argv: list[str] | None = None) -> int:
         level=logging.DEBUG if args.verbose else logging.WARNING,
         format="%(levelname)s %(name)s: %(message)s",
     )
+    # OpenCV and libpng print their own warnings for bad files; ours are one line each.
+    quiet = cv2.utils.logging.LOG_LEVEL_SILENT
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_INFO if args.verbose else quiet)
     if args.command == "analyze":
         if args.downsample <= 0:
             parser.error("--downsample must be > 0")

@@ -6,7 +6,8 @@ pairs across boundaries fall off it. A *class* is a diagonal peak (at most 8); i
 (value, neighbour value) space is the disc of radius r around (g, g), where r is the peak's
 half-width at half-maximum, intersected with the values nearer to g than to any other peak
 (so class regions never overlap). A pixel joins class k when at least ``min_votes`` of its
-4 neighbour pairs fall in disc k; otherwise it stays **unsegmented** (label 0, drawn black).
+4 neighbour pairs fall in disc k (borders reflected); otherwise it stays **unsegmented**
+(label 0, drawn black).
 Labels 1..K are ordered by class area: 1 is the largest class.
 
 Fast labelling: each value v of class k is coded as u(v) = 32 k + q(v) and
@@ -231,22 +232,22 @@ def _vote(plane: np.ndarray, u_lut: np.ndarray, w_lut: np.ndarray, min_votes: in
     u = cv2.LUT(plane, u_lut)
     w = cv2.LUT(plane, w_lut)
     count = np.zeros(plane.shape, np.uint8)
+    # Borders are reflected (as the interest blur does): a pixel's missing pair mirrors the
+    # pair on its other side, so border pixels are neither easier nor harder to label.
     if plane.shape[1] > 1:
         h = cv2.inRange(cv2.subtract(w[:, 1:], u[:, :-1]), 1, 16)
         h >>= 7
         count[:, :-1] += h
         count[:, 1:] += h
+        count[:, 0] += h[:, 0]
+        count[:, -1] += h[:, -1]
     if plane.shape[0] > 1:
         v = cv2.inRange(cv2.subtract(w[1:], u[:-1]), 1, 16)
         v >>= 7
         count[:-1] += v
         count[1:] += v
-    # Border pixels lack one or two pairs: one free vote makes "3 of 4" read "2 of 3"
-    # on edges and "2 of 2" in corners.
-    count[0] += 1
-    count[-1] += 1 if plane.shape[0] > 1 else 0
-    count[1:-1, 0] += 1
-    count[1:-1, -1] += 1 if plane.shape[1] > 1 else 0
+        count[0] += v[0]
+        count[-1] += v[-1]
     return cv2.compare(count, min_votes, cv2.CMP_GE)
 
 

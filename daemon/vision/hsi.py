@@ -87,17 +87,16 @@ def rgb_to_hsi(bgr: np.ndarray, grey_saturation: int = 5, min_intensity: int = 0
     if bgr.dtype != np.uint8:
         raise ValueError(f"expected uint8, got {bgr.dtype}")
     hexcone = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV_FULL)
-    h = cv2.LUT(np.ascontiguousarray(hexcone[:, :, 0]), _HUE_LUT)
+    h = cv2.LUT(cv2.extractChannel(hexcone, 0), _HUE_LUT)
     b, g, r = cv2.split(bgr)
     total = b.astype(np.uint16)
     total += g
     total += r
     i = cv2.convertScaleAbs(total, alpha=1.0 / 3.0)
     lowest = cv2.min(cv2.min(b, g), r).astype(np.uint16)
-    # 765 * min / sum = 255 * min / I, in 0..255; x / 0 is 0 in OpenCV, fixed up below.
-    ratio = cv2.divide(lowest, total, scale=765.0, dtype=cv2.CV_8U)
-    s = 255 - ratio
-    s[total == 0] = 0
+    # S = 255 (sum - 3 min) / sum; OpenCV's x / 0 = 0 gives black S = 0 for free.
+    excess = total - 3 * lowest
+    s = cv2.divide(excess, total, scale=255.0).astype(np.uint8)
     defined = s >= grey_saturation
     if min_intensity > 0:
         defined &= i >= min_intensity

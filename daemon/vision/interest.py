@@ -7,7 +7,7 @@ sigma = 10 gives blobs on the scale of a tile, which is what the published maps 
 
 Speed without approximation worth the name: a sigma-B blur removes everything above
 ~1/(2 pi B) cycles/px, so the sum map is first averaged over f x f blocks (f a power of two
-<= B / 2.5) and blurred with the residual sigma sqrt(B^2 - (f^2 - 1)/12) / f on the small
+<= B / 1.5) and blurred with the residual sigma sqrt(B^2 - (f^2 - 1)/12) / f on the small
 grid. Peaks are found there and refined to sub-pixel positions; the full-resolution map is
 produced only when asked for (products). ``exact_blur=True`` turns this off.
 """
@@ -67,7 +67,7 @@ def _factor(sigma: float, shape: tuple[int, int], exact: bool) -> int:
     if exact:
         return 1
     f = 1
-    while f * 2 <= sigma / 2.5 and min(shape) >= f * 2 * 4:
+    while f * 2 <= sigma / 1.5 and min(shape) >= f * 2 * 4:
         f *= 2
     return f
 

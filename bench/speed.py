@@ -1,0 +1,139 @@
+"""Speed benchmark of the science core on one core, against floors measured in the same run.
+
+Floor = the least any pipeline of this shape must do: OpenCV's colour conversion
+(BGR -> HSV) plus a Gaussian blur with sigma = B of one 8-bit plane, on the same image with
+the same thread count. A ratio <= 1.0 means the whole pipeline (HSI, three co-occurrence
+segmentations, uncommon maps, interest map, peaks, explanations) costs no more than that.
+
+Usage: ``python -m bench.speed [--repeats 3] [--threads 1] [--json]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+import tracemalloc
+
+import cv2
+import numpy as np
+
+from daemon.scene import outcrop_scene
+from daemon.vision.params import PROFILES, VisionParams
+from daemon.vision.pipeline import analyze
+
+SIZES: dict[str, tuple[int, int]] = {
+    "seed mosaic 192x108": (108, 192),
+    "3x4 mosaic 1152x1080": (1080, 1152),
+    "11x4 mosaic 1152x3960": (3960, 1152),
+    "panorama 8000x4000": (4000, 8000),
+}
+SEED_SECONDS = 120.0
+"""The seed's 108x192 mosaic took about 2 minutes on a 667 MHz wearable (ICINCO 2005)."""
+
+
+def test_image(shape: tuple[int, int], seed: int = 11) -> np.ndarray:
+    """An outcrop at the requested size: rendered at <= 1 MP, enlarged, fresh sensor noise."""
+    rows, cols = shape
+    scale = max(1.0, (rows * cols / 1e6) ** 0.5)
+    base = outcrop_scene(seed, (max(8, round(rows / scale)), max(8, round(cols / scale)))).image
+    img = cv2.resize(base, (cols, rows), interpolation=cv2.INTER_CUBIC)
+    noise = np.random.default_rng(seed).normal(0, 3, img.shape).astype(np.int16)
+    return np.clip(img.astype(np.int16) + noise, 0, 255).astype(np.uint8)
+
+
+def _median_ms(fn, repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append((time.perf_counter() - t0) * 1e3)
+    return statistics.median(times)
+
+
+def floor_ms(img: np.ndarray, sigma: float, repeats: int) -> float:
+    def work() -> None:
+        hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV_FULL)
+        cv2.GaussianBlur(np.ascontiguousarray(hsv[:, :, 2]), (0, 0), sigma)
+
+    return _median_ms(work, repeats)
+
+
+def peak_traced_mb(img: np.ndarray, params: VisionParams) -> float:
+    """Peak of arrays allocated through numpy (OpenCV's outputs included) during one run."""
+    tracemalloc.start()
+    analyze(img, params)
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    return peak / 2**20
+
+
+def run(
+    sizes: dict[str, tuple[int, int]] = SIZES, repeats: int = 3, threads: int = 1
+) -> list[dict]:
+    cv2.setNumThreads(threads)
+    rows = []
+    for name, shape in sizes.items():
+        img = test_image(shape)
+        mp = img.shape[0] * img.shape[1] / 1e6
+        for pname, params in PROFILES.items():
+            analyze(img, params)  # warm caches and page in the image
+            stages: list[dict[str, float]] = []
+
+            def once(p: VisionParams = params, im: np.ndarray = img, out: list = stages) -> None:
+                out.append(analyze(im, p).timings_ms)
+
+            ms = _median_ms(once, repeats)
+            base = floor_ms(img, params.sigma, repeats)
+            rows.append(
+                {
+                    "name": name,
+                    "profile": pname,
+                    "megapixels": round(mp, 3),
+                    "ms": round(ms, 2),
+                    "mpix_per_s": round(mp / ms * 1e3, 1),
+                    "floor_ms": round(base, 2),
+                    "ratio": round(ms / base, 2),
+                    "peak_mb": round(peak_traced_mb(img, params), 1),
+                    "stages_ms": {
+                        k: round(statistics.median(s[k] for s in stages), 1) for k in stages[0]
+                    },
+                    "vs_seed": round(SEED_SECONDS * 1e3 / ms) if shape == (108, 192) else None,
+                }
+            )
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--threads", type=int, default=1, help="OpenCV threads (goal is stated for 1)")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    rows = run(repeats=args.repeats, threads=args.threads)
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return 0
+    print(f"speed: {args.threads} OpenCV thread(s), median of {args.repeats}")
+    head = ("image", "profile", "ms", "Mpx/s", "floor ms", "ratio", "peak MB", "hsi/seg/int ms")
+    print("{:24s} {:8s} {:>9s} {:>7s} {:>9s} {:>6s} {:>8s}  {}".format(*head))
+    for r in rows:
+        st = r["stages_ms"]
+        print(
+            f"{r['name']:24s} {r['profile']:8s} {r['ms']:9.1f} {r['mpix_per_s']:7.1f} "
+            f"{r['floor_ms']:9.1f} {r['ratio']:6.2f} {r['peak_mb']:8.1f}  "
+            f"{st['hsi']:.0f}/{st['segment']:.0f}/{st['interest']:.0f}"
+        )
+    for r in rows:
+        if r["vs_seed"]:
+            print(
+                f"seed mosaic, {r['profile']}: {r['ms']:.2f} ms vs ~2 min on the 2004 wearable "
+                f"= {r['vs_seed']:,}x faster"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

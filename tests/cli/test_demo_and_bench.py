@@ -1,0 +1,32 @@
+"""Smoke tests: the demo writes its products; the benchmarks run on a few inputs."""
+
+from __future__ import annotations
+
+import json
+
+from bench import quality, speed
+from daemon.demo import run_demo
+
+
+def test_demo_writes_everything(tmp_path, capsys):
+    assert run_demo(tmp_path, seed=7) == 0
+    out = capsys.readouterr().out
+    for profile in ("default", "paper"):
+        folder = tmp_path / profile / "scene"
+        assert (folder / "sheet.png").exists() and (folder / "overlay.png").exists()
+        assert json.loads((folder / "result.json").read_text())["profile"] == profile
+        assert str(folder) in out
+    assert len(json.loads((tmp_path / "targets.json").read_text())) == 3
+
+
+def test_quality_benchmark_smoke():
+    results = quality.run(n_scenes=3, seed=0, tolerance=6.0)
+    assert set(results) == {"default", "paper", "spectral-residual", "rx-anomaly", "random"}
+    for row in results.values():
+        for key in ("top1", "any3", "precision3", "shadow3"):
+            assert 0.0 <= row[key] <= 1.0
+
+
+def test_speed_benchmark_smoke():
+    rows = speed.run(sizes={"tiny": (54, 96)}, repeats=1)
+    assert rows[0]["name"] == "tiny" and rows[0]["ms"] > 0 and rows[0]["floor_ms"] > 0

@@ -1,0 +1,79 @@
+import numpy as np
+import pytest
+
+from daemon.vision.interest import find_points, interest_map
+from daemon.vision.params import DEFAULT, PAPER
+from daemon.vision.pipeline import analyze, as_bgr8
+
+
+def rock_with_blob(rng, size=12, blob_colour=(40, 160, 40)):
+    """Two noisy beds and a green blob of side ``size`` centred on (x, y) = (35.5, 85.5)."""
+    img = np.empty((120, 160, 3), np.float64)
+    img[:60] = (60, 110, 160)
+    img[60:] = (120, 150, 170)
+    img += rng.normal(0, 3, img.shape)
+    lo, hi = 86 - size // 2, 86 + size // 2
+    img[lo:hi, 36 - size // 2 : 36 + size // 2] = blob_colour
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+# The blob is matched to each profile's blur scale B (10 px for paper, 3 px for default).
+@pytest.mark.parametrize(("params", "size"), [(PAPER, 24), (DEFAULT, 12)])
+def test_odd_coloured_blob_is_the_top_point(rng, params, size):
+    res = analyze(rock_with_blob(rng, size), params)
+    top = res.points[0]
+    assert abs(top.x - 35.5) < 4 and abs(top.y - 85.5) < 4
+    assert [p.rank for p in res.points] == list(range(1, len(res.points) + 1))
+    scores = [p.score for p in res.points]
+    assert scores == sorted(scores, reverse=True)
+    contributions = {e["plane"]: e["contribution"] for e in res.explanations[0]}
+    assert set(contributions) == {"H", "S", "I"}
+    assert max(contributions.values()) > 0
+
+
+def test_decimated_blur_matches_exact_blur(rng):
+    res = analyze(rock_with_blob(rng, 24), PAPER)
+    fast = interest_map(res.segmentations, PAPER)
+    exact = interest_map(res.segmentations, PAPER.replace(exact_blur=True))
+    assert fast.factor == 4 and exact.factor == 1
+    err = np.abs(fast.full() - exact.full())
+    assert err.max() < 0.05 * exact.grid.max()
+    p_fast, p_exact = find_points(fast, PAPER)[0], find_points(exact, PAPER)[0]
+    assert abs(p_fast.x - p_exact.x) < 1.5 and abs(p_fast.y - p_exact.y) < 1.5
+
+
+def test_points_respect_separation(rng):
+    img = rng.integers(0, 256, (100, 100, 3), dtype=np.uint8)
+    pts = analyze(img, PAPER.replace(top_n=10)).points
+    for i, a in enumerate(pts):
+        for b in pts[i + 1 :]:
+            assert np.hypot(a.x - b.x, a.y - b.y) >= PAPER.separation - 2  # sub-pixel refinement
+
+
+@pytest.mark.parametrize(
+    "image",
+    [
+        np.full((40, 50, 3), 128, np.uint8),  # constant
+        np.zeros((1, 1, 3), np.uint8),  # 1x1
+        np.zeros((1, 30, 3), np.uint8),  # one row
+    ],
+)
+@pytest.mark.parametrize("params", [PAPER, DEFAULT])
+def test_flat_and_tiny_images_give_no_points(image, params):
+    res = analyze(image, params)
+    assert res.points == []
+    assert np.isfinite(res.interest.full()).all()
+
+
+def test_grey_16bit_and_rgba_inputs(rng):
+    grey = rng.integers(0, 65536, (30, 40), dtype=np.uint16)
+    grey[10:16, 10:16] = 65535
+    res = analyze(as_bgr8(grey), DEFAULT)
+    assert res.hsi.h.shape == (30, 40)
+    rgba = np.dstack([rock_with_blob(rng), np.full((120, 160), 255, np.uint8)])
+    top = analyze(as_bgr8(rgba), DEFAULT).points[0]
+    assert abs(top.x - 35.5) < 4 and abs(top.y - 85.5) < 4
+    with pytest.raises(ValueError):
+        as_bgr8(np.zeros((3, 3, 5), np.uint8))
+    with pytest.raises(ValueError):
+        analyze(np.zeros((3, 3), np.uint8), DEFAULT)
