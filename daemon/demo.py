@@ -46,5 +46,11 @@ def run_demo(out: Path, seed: int) -> int:
         status |= analyze_files([str(scene_path)], opts)
         folder = out / name / "scene"
         write_png(folder / "sheet.png", _sheet(folder))
+        points = json.loads((folder / "result.json").read_text())["points"]
         print(f"  {name:8s} products in {folder}/ (overlay.png, sheet.png, result.json, ...)")
+        for p in points:
+            near = min(scene.targets, key=lambda t, p=p: np.hypot(t.x - p["x"], t.y - p["y"]))
+            dist = float(np.hypot(near.x - p["x"], near.y - p["y"]))
+            found = f"found the {near.kind}" if dist <= near.radius + 6 else "no planted target"
+            print(f"    #{p['rank']} ({p['x']:.0f}, {p['y']:.0f}): {found}; {p['summary']}")
     return status

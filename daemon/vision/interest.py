@@ -231,7 +231,11 @@ def explain_point(
             entry.update(
                 {
                     "class": k,
-                    "value": _natural_value(name, seg.original_value(cls.center)),
+                    "value": (
+                        "grey"
+                        if name == "H" and params.hue_grey == "class" and cls.center == 0
+                        else _natural_value(name, seg.original_value(cls.center))
+                    ),
                     "area_fraction": round(cls.area / total_pixels, 5),
                     "uncommon": round(float(values[k]), 3),
                 }
@@ -251,9 +255,10 @@ def describe(explanation: list[dict]) -> str:
     for e in sorted(explanation, key=lambda e: -e["contribution"]):
         if "class" not in e:
             continue
-        unit = "deg" if e["plane"] == "H" else ""
+        value = e["value"] if isinstance(e["value"], str) else f"{e['value']:g}"
+        unit = "deg" if e["plane"] == "H" and not isinstance(e["value"], str) else ""
         parts.append(
-            f"{e['plane']} class {e['class']}/{e['classes']} ({e['value']:g}{unit}, "
+            f"{e['plane']} class {e['class']}/{e['classes']} ({value}{unit}, "
             f"{100 * e['area_fraction']:.2g}% of image) +{e['contribution']:.1f}"
         )
     return "; ".join(parts) if parts else "no segmented class nearby"

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from daemon.vision.interest import find_points, interest_map
+from daemon.vision.interest import describe, find_points, interest_map
 from daemon.vision.params import DEFAULT, PAPER
 from daemon.vision.pipeline import analyze, as_bgr8
 
@@ -77,3 +77,11 @@ def test_grey_16bit_and_rgba_inputs(rng):
         as_bgr8(np.zeros((3, 3, 5), np.uint8))
     with pytest.raises(ValueError):
         analyze(np.zeros((3, 3), np.uint8), DEFAULT)
+
+
+def test_white_spot_is_explained_as_a_grey_hue_class(rng):
+    img = rock_with_blob(rng, 12, blob_colour=(235, 235, 235))
+    res = analyze(img, DEFAULT)
+    h = next(e for e in res.explanations[0] if e["plane"] == "H")
+    assert h["value"] == "grey"
+    assert "H class" in describe(res.explanations[0]) and "(grey," in describe(res.explanations[0])
