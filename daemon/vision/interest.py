@@ -233,7 +233,7 @@ def explain_point(
                     "class": k,
                     "value": (
                         "grey"
-                        if name == "H" and params.hue_grey == "class" and cls.center == 0
+                        if name == "H" and params.hue_grey == "class" and cls.center <= cls.radius
                         else _natural_value(name, seg.original_value(cls.center))
                     ),
                     "area_fraction": round(cls.area / total_pixels, 5),
