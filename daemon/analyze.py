@@ -145,6 +145,7 @@ def analyze_files(
             elapsed = (time.perf_counter() - t0) * 1e3
             folder = _folder_for(opts.out, path, used)
             doc = write_products(folder, path, bgr, res, opts.profile)
+            _LOGGER.debug("%s: analysed in %.1f ms, stages %s", path, elapsed, res.timings_ms)
         except ImageError as exc:
             failed += 1
             print(f"cyborgd analyze: {exc}", file=stderr)

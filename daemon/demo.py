@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 
 from .analyze import AnalyzeOptions, analyze_files
-from .imageio import write_png
+from .imageio import write_atomic, write_png
 from .scene import outcrop_scene
 from .vision.params import PROFILES
 
@@ -38,7 +38,7 @@ def run_demo(out: Path, seed: int) -> int:
     scene_path = out / "scene.png"
     write_png(scene_path, scene.image)
     truth = [{"kind": t.kind, "x": round(t.x, 1), "y": round(t.y, 1)} for t in scene.targets]
-    (out / "targets.json").write_text(json.dumps(truth, indent=2) + "\n")
+    write_atomic(out / "targets.json", (json.dumps(truth, indent=2) + "\n").encode())
     print(f"scene: {scene_path} (planted: {', '.join(t['kind'] for t in truth)})")
     status = 0
     for name, params in PROFILES.items():
