@@ -1,8 +1,9 @@
-"""``cyborgd``: the rig's command line (offline analysis and the demo for now)."""
+"""``cyborgd``: the rig's command line (offline analysis, the demo, the PTU emulator)."""
 
 from __future__ import annotations
 
 import argparse
+import asyncio
 import logging
 import sys
 from pathlib import Path
@@ -11,6 +12,9 @@ import cv2
 
 from .analyze import AnalyzeOptions, analyze_files
 from .demo import run_demo
+from .ptu.emulator import Ptu46Emulator
+from .ptu.models import MODELS
+from .ptu.ptyserver import BANNER, PtyEmulatorServer, parse_fault, serve
 from .vision.params import PROFILES, profile
 
 
@@ -41,12 +45,62 @@ def _demo_parser(sub: argparse._SubParsersAction) -> None:
     ap.add_argument("--seed", type=int, default=9)
 
 
+def _emulator_parser(sub: argparse._SubParsersAction) -> None:
+    ap = sub.add_parser(
+        "ptu-emulator",
+        help="run a PTU-46 emulator on a pseudo-terminal and print the path to open",
+    )
+    ap.add_argument("--model", choices=sorted(MODELS), default="D46-17")
+    ap.add_argument(
+        "--time-scale",
+        type=float,
+        default=1.0,
+        metavar="X",
+        help="emulated seconds per real second (default: %(default)s)",
+    )
+    ap.add_argument("--link", type=Path, help="also make this symlink to the pty (like /dev/ptu)")
+    ap.add_argument(
+        "--baud", type=int, default=9600, help="pace output like this line; 0: no pacing"
+    )
+    ap.add_argument("--banner", action="store_true", help="print a power-up banner first")
+    ap.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        metavar="SPEC",
+        help="inject a fault: action[:match[:nth[:seconds]]], "
+        "action = garbage|drop|delay|hangup (repeatable)",
+    )
+
+
+def _run_emulator(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    try:
+        faults = [parse_fault(spec) for spec in args.fault]
+        emulator = Ptu46Emulator(MODELS[args.model], time_scale=args.time_scale)
+    except ValueError as exc:
+        parser.error(str(exc))
+    if not MODELS[args.model].verified:
+        logging.getLogger("cyborgd").warning(
+            "model %s: its numbers are inferred, not from a manual", args.model
+        )
+    server = PtyEmulatorServer(
+        emulator,
+        link=args.link,
+        faults=faults,
+        banner=BANNER if args.banner else None,
+        baud=args.baud,
+    )
+    asyncio.run(serve(server))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="cyborgd", description=__doc__)
     parser.add_argument("-v", "--verbose", action="store_true")
     sub = parser.add_subparsers(dest="command", required=True)
     _analyze_parser(sub)
     _demo_parser(sub)
+    _emulator_parser(sub)
     args = parser.parse_args(argv)
     logging.basicConfig(
         level=logging.DEBUG if args.verbose else logging.WARNING,
@@ -65,6 +119,8 @@ def main(argv: list[str] | None = None) -> int:
             params = params.replace(top_n=args.top)
         opts = AnalyzeOptions(args.out, args.profile, params, args.downsample, args.json)
         return analyze_files(args.images, opts)
+    if args.command == "ptu-emulator":
+        return _run_emulator(args, parser)
     return run_demo(args.out, args.seed)
 
 

@@ -1,0 +1,104 @@
+"""Backends around the emulator: in-process (``emu://``) and on a pty (``pty://``)."""
+
+from __future__ import annotations
+
+import asyncio
+import tempfile
+from pathlib import Path
+
+from .base import LinkState
+from .commanded import CommandedPtu
+from .emulator import Ptu46Emulator
+from .errors import PtuConnectionError, PtuTimeoutError
+from .ptyserver import Fault, PtyEmulatorServer
+from .serial import SerialPtu
+from .wire import LineFramer, Reply, format_command, parse_reply, reply_float
+
+__all__ = ["EmulatedPtu", "PtyPtu"]
+
+_POLL = 0.002
+
+
+class EmulatedPtu(CommandedPtu):
+    """The emulator called in-process: no bytes on a line, same command language."""
+
+    def __init__(self, emulator: Ptu46Emulator | None = None) -> None:
+        super().__init__()
+        self.emulator = emulator or Ptu46Emulator()
+        self._lock = asyncio.Lock()
+        self._framer = LineFramer()
+
+    async def open(self) -> None:
+        self._state = LinkState.CONNECTING
+        await self._initialise()
+        self._state = LinkState.READY
+
+    async def close(self) -> None:
+        if self._state is LinkState.READY:
+            await self.halt()
+        self._state = LinkState.DISCONNECTED
+
+    async def _request(
+        self,
+        command: str,
+        value: int | None = None,
+        *,
+        numeric: bool = False,
+        timeout: float | None = None,
+    ) -> Reply:
+        if self._state is LinkState.DISCONNECTED:
+            raise PtuConnectionError("emulated PTU is closed")
+        data = format_command(command, value)
+        sent = data.decode().strip()
+        async with self._lock:
+            lines = self._framer.feed(self.emulator.receive(data))
+            try:
+                async with asyncio.timeout(timeout or 1.0 + self.emulator.busy * 120.0):
+                    while True:
+                        for line in lines:
+                            reply = parse_reply(line, sent)
+                            if reply and not (numeric and reply.ok and reply_float(reply) is None):
+                                return reply
+                        await asyncio.sleep(_POLL)
+                        lines = self._framer.feed(self.emulator.poll())
+            except TimeoutError:
+                raise PtuTimeoutError(f"emulated PTU: no reply to {sent}") from None
+
+
+class PtyPtu(SerialPtu):
+    """The emulator on a pty in this process, driven through the real serial driver.
+
+    ``server`` is exposed so tests and the demo can inject faults or hang the line up.
+    """
+
+    def __init__(
+        self,
+        emulator: Ptu46Emulator | None = None,
+        *,
+        faults: list[Fault] | None = None,
+        banner: bytes | None = None,
+        baud: int = 9600,
+        **serial_options: object,
+    ) -> None:
+        self._dir = tempfile.TemporaryDirectory(prefix="cyborg-ptu-")
+        link = Path(self._dir.name) / "ptu"
+        self.server = PtyEmulatorServer(
+            emulator or Ptu46Emulator(), link=link, faults=faults, banner=banner, baud=baud
+        )
+        super().__init__(str(link), **serial_options)  # type: ignore[arg-type]
+
+    async def open(self) -> None:
+        if not self.server.connected:
+            await self.server.start()
+        try:
+            await super().open()
+        except BaseException:
+            await self.server.close()
+            raise
+
+    async def close(self) -> None:
+        try:
+            await super().close()
+        finally:
+            await self.server.close()
+            self._dir.cleanup()

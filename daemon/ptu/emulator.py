@@ -1,0 +1,534 @@
+"""A PTU-46 controller emulator, sans I/O: bytes in, bytes out, motion on a scaled clock.
+
+It follows ``shared/reference/ptu46.md``: echo on and verbose feedback at power-up,
+``ED/EE/FT/FV``, D46 error wording, soft limits with ``LE/LD`` (and mechanical stops
+beyond them that report ``!P``/``!T``), immediate and slaved execution, ``A`` answering
+only when motion ends, ``R`` calibration, the trapezoid profile integrated exactly so a
+query mid-move shows where the head is, and power-up defaults with ``DS/DR/DF``.
+
+Transport lives elsewhere: :mod:`daemon.ptu.ptyserver` puts this on a pseudo-terminal,
+:class:`daemon.ptu.emulated.EmulatedPtu` calls it in-process.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from .models import MODELS, PtuModel
+from .motion import Axis, move_time
+
+__all__ = ["Ptu46Emulator"]
+
+_TOKEN = re.compile(r"([A-Z_@]+)([-+]?\d+)?\Z")
+_DELIMITERS = b" \r\n"
+_SETTINGS = ("echo", "verbose", "limits", "immediate", "velocity_mode")
+_AXIS_SETTINGS = ("speed", "base", "accel", "upper", "lower")
+
+
+@dataclass
+class _AxisState:
+    """One axis: its kinematics plus the settings the unit keeps for it."""
+
+    name: str
+    """``Pan`` or ``Tilt``, as the verbose replies spell it."""
+    letter: str
+    lo: int
+    hi: int
+    resolution: float
+    motion: Axis
+    upper: int
+    lower: int
+    stop_margin: int
+    pending: int | None = None
+    """Slaved-mode target waiting for ``A``."""
+    hold_power: str = "REGULAR"
+    move_power: str = "REGULAR"
+    stalled: bool = False
+    """Ran into a mechanical stop; the step count is no longer trusted until ``R``."""
+
+    @property
+    def position(self) -> int:
+        return round(self.motion.position)
+
+
+@dataclass
+class _Deferred:
+    """A reply that waits for motion to end (``A``) or calibration to finish (``R``)."""
+
+    text: str
+    due: float | None = None
+    """Emulated time at which to answer; ``None``: when both axes stop."""
+    then: Callable[[], None] | None = None
+
+
+@dataclass
+class Ptu46Emulator:
+    """The controller: feed it received bytes, collect what it writes back."""
+
+    model: PtuModel = field(default_factory=lambda: MODELS["D46-17"])
+    time_scale: float = 1.0
+    """Emulated seconds per real second (> 1 runs faster than real time)."""
+    clock: Callable[[], float] = time.monotonic
+
+    def __post_init__(self) -> None:
+        if self.time_scale <= 0:
+            raise ValueError("time_scale must be > 0")
+        m = self.model
+        self._t0 = self.clock()
+        self._last = 0.0
+        self.pan = self._axis("Pan", "P", m.pan_min, m.pan_max, m.pan_resolution)
+        self.tilt = self._axis("Tilt", "T", m.tilt_min, m.tilt_max, m.tilt_resolution)
+        self._factory = self._snapshot()
+        self._saved = self._factory
+        self._restore(self._saved)
+        self._token = bytearray()
+        self._queue = bytearray()
+        self._deferred: _Deferred | None = None
+        self._unit_id = 0
+        self._selected = True
+        self.commands_seen = 0
+
+    def _axis(self, name: str, letter: str, lo: int, hi: int, res: float) -> _AxisState:
+        m = self.model
+        motion = Axis(speed=m.speed, base=m.base_speed, accel=m.accel)
+        return _AxisState(
+            name, letter, lo, hi, res, motion, m.upper_speed, m.lower_speed, m.hard_stop_margin
+        )
+
+    # -- clock ---------------------------------------------------------------------------
+
+    def now(self) -> float:
+        """Emulated seconds since power-up."""
+        return (self.clock() - self._t0) * self.time_scale
+
+    def _advance(self) -> bytes:
+        """Bring both axes to ``now``; report any axis that ran into its mechanical stop."""
+        t = self.now()
+        dt, self._last = t - self._last, t
+        out = b""
+        for ax in (self.tilt, self.pan):
+            ax.motion.advance(dt)
+            lo, hi = ax.lo - ax.stop_margin, ax.hi + ax.stop_margin
+            if not lo <= ax.motion.position <= hi:
+                ax.motion.position = min(max(ax.motion.position, lo), hi)
+                ax.motion.target, ax.motion.velocity = ax.motion.position, 0.0
+                ax.stalled = True
+                out += b"!" + ax.letter.encode() + b"\r\n"
+        return out
+
+    # -- I/O -----------------------------------------------------------------------------
+
+    def receive(self, data: bytes) -> bytes:
+        """Take bytes from the host; return what the unit writes back right away."""
+        self._queue += data
+        return self._advance() + self._drain()
+
+    def poll(self) -> bytes:
+        """Output that became due since the last call (``A``/``R`` replies, limit events)."""
+        out = self._advance()
+        d = self._deferred
+        if d is not None and (
+            (d.due is None and not (self.pan.motion.moving or self.tilt.motion.moving))
+            or (d.due is not None and self.now() >= d.due)
+        ):
+            self._deferred = None
+            if d.then:
+                d.then()
+            out += self._line(d.text)
+            out += self._drain()
+        return out
+
+    @property
+    def busy(self) -> bool:
+        """A blocking command (``A``, ``R``) is running; input waits in the queue."""
+        return self._deferred is not None
+
+    @property
+    def moving(self) -> bool:
+        self._advance()
+        return self.pan.motion.moving or self.tilt.motion.moving
+
+    def _drain(self) -> bytes:
+        out = bytearray()
+        while self._queue and self._deferred is None:
+            byte = self._queue[:1]
+            del self._queue[:1]
+            if self.echo and self._selected:
+                out += byte
+            if byte in (b" ", b"\r", b"\n"):
+                if self._token:
+                    token = self._token.decode("ascii", "replace").upper()
+                    self._token.clear()
+                    out += self._execute(token)
+            elif len(self._token) < 64:
+                self._token += byte
+        return bytes(out)
+
+    def _line(self, text: str) -> bytes:
+        return (text + "\r\n").encode("ascii") if self._selected else b""
+
+    def _execute(self, token: str) -> bytes:
+        self.commands_seen += 1
+        if token == "?":
+            return self._line("* " + ", ".join(sorted({k[:2] for k in _HANDLERS})))
+        m = _TOKEN.match(token)
+        handler = _HANDLERS.get(m.group(1)) if m else None
+        if m is None or handler is None:
+            return self._line("! " + self.model.illegal_message)
+        result = handler(self, _int(m.group(2)))
+        if result is None:  # deferred until motion ends, or nothing to say
+            return b""
+        return self._line(result)
+
+    # -- state helpers -------------------------------------------------------------------
+
+    def _snapshot(self) -> dict[str, object]:
+        snap: dict[str, object] = {}
+        for ax in (self.pan, self.tilt):
+            snap.update({f"{ax.letter}{k}": getattr(ax, k) for k in ("upper", "lower")})
+            snap.update(
+                {f"{ax.letter}{k}": getattr(ax.motion, k) for k in ("speed", "base", "accel")}
+            )
+        if hasattr(self, "echo"):
+            snap.update({k: getattr(self, k) for k in _SETTINGS})
+        else:
+            snap.update(echo=True, verbose=True, limits=True, immediate=True, velocity_mode=False)
+        return snap
+
+    def _restore(self, snap: dict[str, object]) -> None:
+        for ax in (self.pan, self.tilt):
+            for k in ("upper", "lower"):
+                setattr(ax, k, snap[f"{ax.letter}{k}"])
+            for k in ("speed", "base", "accel"):
+                setattr(ax.motion, k, snap[f"{ax.letter}{k}"])
+        for k in _SETTINGS:
+            setattr(self, k, snap[k])
+
+    def power_cycle(self) -> None:
+        """Power off and on: saved defaults come back, the head calibrates to (0, 0)."""
+        self._restore(self._saved)
+        for ax in (self.pan, self.tilt):
+            ax.motion.position = ax.motion.target = ax.motion.velocity = 0.0
+            ax.pending, ax.stalled = None, False
+        self._token.clear()
+        self._queue.clear()
+        self._deferred = None
+        self._selected = True
+
+    def _text(self, verbose: str, terse: object) -> str:
+        return "* " + (verbose if self.verbose else str(terse))
+
+    def _moving(self, ax: _AxisState) -> bool:
+        return ax.motion.moving
+
+    def _set_target(self, ax: _AxisState, pos: int) -> str:
+        if self.limits and pos > ax.hi:
+            return f"! Maximum allowable {ax.name} position is {ax.hi}"
+        if self.limits and pos < ax.lo:
+            return f"! Minimum allowable {ax.name} position is {ax.lo}"
+        if self.immediate:
+            ax.motion.target = float(pos)
+        else:
+            ax.pending = pos
+        return "*"
+
+    def _set_speed(self, ax: _AxisState, value: int) -> str:
+        if abs(value) > ax.upper:
+            return f"! {ax.name} speed cannot exceed {ax.upper} positions/sec"
+        if self.velocity_mode:
+            if value and abs(value) < ax.lower:
+                return f"! Motor speed cannot be less than {ax.lower} pos/sec"
+            ax.motion.speed = float(abs(value) or ax.motion.speed)
+            if value == 0:
+                ax.motion.halt()
+            else:
+                stop = ax.hi if value > 0 else ax.lo
+                ax.motion.target = float(
+                    stop if self.limits else stop + math.copysign(ax.stop_margin + 1, value)
+                )
+            return "*"
+        if value < ax.lower:
+            return f"! Motor speed cannot be less than {ax.lower} pos/sec"
+        ax.motion.speed = float(value)
+        return "*"
+
+    def _calibrate(self) -> str | None:
+        """``R``: each axis runs to both stops and back to centre; answer when done."""
+        seconds = 0.0
+        for ax in (self.tilt, self.pan):
+            m = ax.motion
+            path = (abs(ax.hi - m.position), ax.hi - ax.lo, abs(ax.lo))
+            seconds += sum(move_time(d, ax.upper, m.base, m.accel) for d in path)
+
+        def done() -> None:
+            for ax in (self.pan, self.tilt):
+                ax.motion.position = ax.motion.target = ax.motion.velocity = 0.0
+                ax.stalled = False
+
+        for ax in (self.pan, self.tilt):
+            ax.motion.velocity = 0.0
+            ax.motion.target = ax.motion.position
+        self._deferred = _Deferred("!T!T!P!P*", self.now() + seconds, done)
+        return None
+
+
+def _int(text: str | None) -> int | None:
+    return None if text is None else int(text)
+
+
+# -- command table: name -> handler(emulator, argument or None) -> reply line or None ---------
+
+
+def _axis_of(letter: str) -> Callable[[Ptu46Emulator], _AxisState]:
+    return (lambda e: e.pan) if letter == "P" else (lambda e: e.tilt)
+
+
+def _position(letter: str):
+    axis = _axis_of(letter)
+
+    def handler(e: Ptu46Emulator, n: int | None) -> str:
+        ax = axis(e)
+        if n is None:
+            return e._text(f"Current {ax.name} position is {ax.position}", ax.position)
+        return e._set_target(ax, n)
+
+    return handler
+
+
+def _offset(letter: str):
+    axis = _axis_of(letter)
+
+    def handler(e: Ptu46Emulator, n: int | None) -> str:
+        ax = axis(e)
+        if n is None:
+            target = ax.pending if ax.pending is not None else round(ax.motion.target)
+            return e._text(f"Target {ax.name} position is {target}", target)
+        return e._set_target(ax, ax.position + n)
+
+    return handler
+
+
+def _query(letter: str, verbose: str, value: Callable[[_AxisState], object]):
+    axis = _axis_of(letter)
+
+    def handler(e: Ptu46Emulator, n: int | None) -> str:
+        if n is not None:
+            return "! " + e.model.illegal_message
+        ax = axis(e)
+        return e._text(verbose.format(name=ax.name, v=value(ax)), value(ax))
+
+    return handler
+
+
+def _speed(letter: str):
+    axis = _axis_of(letter)
+
+    def handler(e: Ptu46Emulator, n: int | None) -> str:
+        ax = axis(e)
+        if n is None:
+            v = round(ax.motion.speed)
+            return e._text(f"Target {ax.name} speed is {v} positions/sec", v)
+        return e._set_speed(ax, n)
+
+    return handler
+
+
+def _static_setting(letter: str, what: str, verbose: str, check: Callable[..., str | None]):
+    """``PA``/``PB``/``PU``/``PL``: settings the unit cannot change while the axis moves."""
+    axis = _axis_of(letter)
+
+    def handler(e: Ptu46Emulator, n: int | None) -> str:
+        ax = axis(e)
+        current = round(
+            getattr(ax.motion, what) if what in ("base", "accel") else getattr(ax, what)
+        )
+        if n is None:
+            return e._text(verbose.format(name=ax.name, v=current), current)
+        if e._moving(ax):
+            return f"! {ax.name} {what} cannot be changed while the axis is moving"
+        error = check(e, ax, n)
+        if error:
+            return error
+        if what in ("base", "accel"):
+            setattr(ax.motion, what, float(n))
+        else:
+            setattr(ax, what, n)
+        return "*"
+
+    return handler
+
+
+def _check_accel(e: Ptu46Emulator, ax: _AxisState, n: int) -> str | None:
+    return f"! {ax.name} acceleration must be positive" if n <= 0 else None
+
+
+def _check_base(e: Ptu46Emulator, ax: _AxisState, n: int) -> str | None:
+    if n > ax.upper:
+        return f"! {ax.name} speed cannot exceed {ax.upper} positions/sec"
+    return f"! Motor speed cannot be less than {ax.lower} pos/sec" if n < ax.lower else None
+
+
+def _check_upper(e: Ptu46Emulator, ax: _AxisState, n: int) -> str | None:
+    if n < ax.lower:
+        return f"! Motor speed cannot be less than {ax.lower} pos/sec"
+    cap = 2 * (e.model.upper_speed)
+    return f"! {ax.name} speed cannot exceed {cap} positions/sec" if n > cap else None
+
+
+def _check_lower(e: Ptu46Emulator, ax: _AxisState, n: int) -> str | None:
+    if n < e.model.lower_speed:
+        return f"! Motor speed cannot be less than {e.model.lower_speed} pos/sec"
+    if n > ax.upper:
+        return f"! {ax.name} speed cannot exceed {ax.upper} positions/sec"
+    return None
+
+
+def _flag(attr: str, value: bool):
+    def handler(e: Ptu46Emulator, n: int | None) -> str:
+        if n is not None:
+            return "! " + e.model.illegal_message
+        setattr(e, attr, value)
+        return "*"
+
+    return handler
+
+
+def _flag_query(attr: str, on: str, off: str):
+    def handler(e: Ptu46Emulator, n: int | None) -> str:
+        return "* " + (on if getattr(e, attr) else off)
+
+    return handler
+
+
+def _await(e: Ptu46Emulator, n: int | None) -> str | None:
+    for ax in (e.pan, e.tilt):
+        if ax.pending is not None:
+            ax.motion.target, ax.pending = float(ax.pending), None
+    e._deferred = _Deferred("*")
+    return None
+
+
+def _halt(*letters: str):
+    def handler(e: Ptu46Emulator, n: int | None) -> str:
+        for ax in (e.pan, e.tilt):
+            if ax.letter in letters:
+                ax.pending = None
+                ax.motion.halt()
+        return "*"
+
+    return handler
+
+
+def _power(letter: str, kind: str, level: str | None):
+    axis = _axis_of(letter)
+    attr = "hold_power" if kind == "hold" else "move_power"
+
+    def handler(e: Ptu46Emulator, n: int | None) -> str:
+        ax = axis(e)
+        if level is None:
+            return f"* {ax.name} in {getattr(ax, attr)} {kind} power mode"
+        setattr(ax, attr, level)
+        return "*"
+
+    return handler
+
+
+def _defaults(action: str):
+    def handler(e: Ptu46Emulator, n: int | None) -> str:
+        if action == "save":
+            e._saved = e._snapshot()
+        else:
+            e._restore(e._saved if action == "restore" else e._factory)
+        return "*"
+
+    return handler
+
+
+def _unit(e: Ptu46Emulator, n: int | None) -> str:
+    if n is None:
+        return e._text(f"Unit ID is {e._unit_id}", e._unit_id)
+    if not 0 <= n <= 127:
+        return f"! Unit ID must be between 0 and 127, not {n}"
+    e._unit_id = n
+    return "*"
+
+
+def _select(e: Ptu46Emulator, n: int | None) -> None:
+    """``_n`` selects a unit on a multi-drop line; unselected units stay silent."""
+    e._selected = n is None or n in (0, e._unit_id)
+
+
+_HANDLERS: dict[str, Callable[..., object]] = {
+    "A": _await,
+    "I": _flag("immediate", True),
+    "S": _flag("immediate", False),
+    "IQ": _flag_query("immediate", "Immediate execution mode", "Slaved execution mode"),
+    "H": _halt("P", "T"),
+    "HP": _halt("P"),
+    "HT": _halt("T"),
+    "L": _flag_query(
+        "limits",
+        "Limit bounds are ENABLED (soft limits enabled)",
+        "Limit bounds are DISABLED (hard limits only: use care)",
+    ),
+    "LE": _flag("limits", True),
+    "LD": _flag("limits", False),
+    "E": _flag_query("echo", "Echoing ON", "Echoing OFF"),
+    "EE": _flag("echo", True),
+    "ED": _flag("echo", False),
+    "F": _flag_query("verbose", "ASCII verbose mode", "ASCII terse mode"),
+    "FV": _flag("verbose", True),
+    "FT": _flag("verbose", False),
+    "C": _flag_query(
+        "velocity_mode",
+        "pure velocity speed control mode",
+        "independent (default) speed control mode",
+    ),
+    "CI": _flag("velocity_mode", False),
+    "CV": _flag("velocity_mode", True),
+    "R": lambda e, n: e._calibrate(),
+    "RD": lambda e, n: "*",
+    "RE": lambda e, n: "*",
+    "RP": lambda e, n: "*",
+    "RT": lambda e, n: "*",
+    "DS": _defaults("save"),
+    "DR": _defaults("restore"),
+    "DF": _defaults("factory"),
+    "V": lambda e, n: "* " + e.model.version,
+    "O": lambda e, n: e._text("Input 12 VDC @ 77 degF", "12,77"),
+    "U": _unit,
+    "_": _select,
+}
+for _l in "PT":
+    _HANDLERS |= {
+        f"{_l}P": _position(_l),
+        f"{_l}O": _offset(_l),
+        f"{_l}S": _speed(_l),
+        f"{_l}R": _query(_l, "{v:.4f} seconds arc per {name} position", lambda a: a.resolution),
+        f"{_l}N": _query(_l, "Minimum {name} position is {v}", lambda a: a.lo),
+        f"{_l}X": _query(_l, "Maximum {name} position is {v}", lambda a: a.hi),
+        f"{_l}A": _static_setting(
+            _l, "accel", "{name} acceleration is {v} positions/sec^2", _check_accel
+        ),
+        f"{_l}B": _static_setting(
+            _l, "base", "Current {name} base speed is {v} positions/sec", _check_base
+        ),
+        f"{_l}U": _static_setting(
+            _l, "upper", "Maximum {name} speed is {v} positions/sec", _check_upper
+        ),
+        f"{_l}L": _static_setting(
+            _l, "lower", "Minimum {name} speed is {v} positions/sec", _check_lower
+        ),
+        f"{_l}H": _power(_l, "hold", None),
+        f"{_l}HR": _power(_l, "hold", "REGULAR"),
+        f"{_l}HL": _power(_l, "hold", "LOW"),
+        f"{_l}HO": _power(_l, "hold", "OFF"),
+        f"{_l}M": _power(_l, "move", None),
+        f"{_l}MH": _power(_l, "move", "HIGH"),
+        f"{_l}MR": _power(_l, "move", "REGULAR"),
+        f"{_l}ML": _power(_l, "move", "LOW"),
+    }
