@@ -31,6 +31,8 @@ _LOGGER = logging.getLogger(__name__)
 
 POLL_INTERVAL = 0.02
 """Seconds between position polls while waiting for motion (two short queries each)."""
+STALL_SECONDS = 0.25
+"""No change for this long means the head stopped (7 positions even at the 31 pos/s floor)."""
 
 
 class CommandedPtu(PanTiltUnit):
@@ -189,20 +191,24 @@ class CommandedPtu(PanTiltUnit):
             timeout = 2.0 + 1.5 * self.predict_move_time(
                 self.info.pan.to_degrees(goal[0]), self.info.tilt.to_degrees(goal[1])
             )
-        still = 0
+        loop = asyncio.get_running_loop()
+        changed_at = loop.time()
+        last = self._last
         async with asyncio.timeout(timeout):
             while True:
                 here = await self.position()
+                now = loop.time()
+                if (here.pan_pos, here.tilt_pos) != last:
+                    last, changed_at = (here.pan_pos, here.tilt_pos), now
                 at_target = all(
-                    t is None or t == p
-                    for t, p in zip(self._target, (here.pan_pos, here.tilt_pos), strict=True)
+                    t is None or t == p for t, p in zip(self._target, last, strict=True)
                 )
-                still = still + 1 if not here.moving else 0
                 if at_target and not here.moving:
                     return here
-                if still >= 3:  # stopped short of the target: a halt or a mechanical stop
-                    self._target = [here.pan_pos, here.tilt_pos]
-                    return here
+                if now - changed_at >= STALL_SECONDS:
+                    # Stopped short of the target: a halt, a mechanical stop, a stall.
+                    self._target = list(last)
+                    return self._as_position(*last, moving=False)
                 await asyncio.sleep(POLL_INTERVAL)
 
     async def halt(self) -> None:

@@ -349,7 +349,8 @@ def _static_setting(letter: str, what: str, verbose: str, check: Callable[..., s
         if n is None:
             return e._text(verbose.format(name=ax.name, v=current), current)
         if e._moving(ax):
-            return f"! {ax.name} {what} cannot be changed while the axis is moving"
+            label = {"accel": "acceleration", "base": "base speed"}.get(what, f"{what} speed")
+            return f"! {ax.name} {label} cannot be changed while the axis is moving"
         error = check(e, ax, n)
         if error:
             return error
