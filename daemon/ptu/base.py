@@ -12,6 +12,8 @@ import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
+from .geometry import degrees_to_positions, positions_to_degrees
+
 __all__ = ["AxisInfo", "LinkState", "PanTiltUnit", "PtuInfo", "PtuPosition"]
 
 
@@ -41,10 +43,10 @@ class AxisInfo:
         return self.resolution / 3600.0
 
     def to_degrees(self, positions: float) -> float:
-        return positions * self.degrees_per_position
+        return positions_to_degrees(positions, self.resolution)
 
     def to_positions(self, degrees: float) -> int:
-        return round(degrees / self.degrees_per_position)
+        return degrees_to_positions(degrees, self.resolution)
 
     @property
     def min_deg(self) -> float:

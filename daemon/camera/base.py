@@ -1,0 +1,73 @@
+"""The camera interface: grab a frame, know the resolution, zoom where there is a zoom.
+
+::
+
+    CameraError                 root
+    └── CameraUnavailableError  the device or file cannot be opened or stopped delivering
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["Camera", "CameraError", "CameraUnavailableError", "Exposure", "Frame"]
+
+
+class CameraError(Exception):
+    """Root of every camera error."""
+
+
+class CameraUnavailableError(CameraError):
+    """Opening or reading failed, also after the backend's reconnect attempts."""
+
+
+@dataclass(frozen=True)
+class Exposure:
+    """What is known about how a frame was exposed (``None`` where the device won't say)."""
+
+    seconds: float | None = None
+    gain_db: float | None = None
+    auto: bool | None = None
+
+
+@dataclass(frozen=True)
+class Frame:
+    image: np.ndarray
+    """(M, N, 3) uint8 BGR."""
+    timestamp: float
+    """Wall-clock seconds when the frame was captured."""
+    seq: int
+    exposure: Exposure = field(default_factory=Exposure)
+    pose: tuple[float, float] | None = None
+    """(pan, tilt) degrees the frame was rendered at, for simulated cameras."""
+
+
+class Camera(ABC):
+    """One camera. ``grab`` never blocks the event loop."""
+
+    @property
+    @abstractmethod
+    def resolution(self) -> tuple[int, int]:
+        """(width, height) of the frames ``grab`` returns."""
+
+    @abstractmethod
+    async def open(self) -> None: ...
+
+    @abstractmethod
+    async def close(self) -> None: ...
+
+    @abstractmethod
+    async def grab(self) -> Frame: ...
+
+    async def zoom(self, level: float) -> None:  # noqa: B027 - a no-op is the right default
+        """Set the zoom (1 = widest); cameras without a zoom ignore it."""
+
+    async def __aenter__(self) -> Camera:
+        await self.open()
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.close()

@@ -1,0 +1,203 @@
+"""A simulated camera on the PTU: renders what it would see from a scene panorama.
+
+The panorama is equirectangular: column ↔ pan, row ↔ tilt, linearly, over a known
+angular extent. Each frame is rendered through the exact pinhole/pan-tilt geometry of
+:mod:`daemon.ptu.geometry` at the pose the PTU reports at grab time, so motion and
+pointing errors show up in the frames, then gets sensor noise. The built-in scene is
+:func:`daemon.scene.outcrop_scene` at panorama size: a layered cliff with ledge
+shadows and planted targets (wet stain, plant, white vein knot, red spot) whose world
+angles are known, which is what tests, the demo and the survey benchmark score against.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import functools
+import math
+import time
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
+from pathlib import Path
+from urllib.parse import parse_qs, urlsplit
+
+import cv2
+import numpy as np
+
+from ..imageio import ImageError, read_image
+from ..ptu.geometry import CameraModel, pixel_to_angles
+from ..scene import outcrop_scene
+from ..vision.pipeline import as_bgr8
+from .base import Camera, CameraError, Exposure, Frame
+
+__all__ = ["Panorama", "PoseSource", "SimulatedCamera", "WorldTarget", "outcrop_panorama"]
+
+PoseSource = Callable[[], Awaitable[tuple[float, float]]]
+
+
+@dataclass(frozen=True)
+class WorldTarget:
+    """A planted feature's kind and where it is, in world degrees."""
+
+    kind: str
+    pan: float
+    tilt: float
+    radius: float
+
+
+@dataclass(frozen=True)
+class Panorama:
+    """An equirectangular scene: ``image`` spans ``pan`` and ``tilt`` (degrees, min..max)."""
+
+    image: np.ndarray
+    pan: tuple[float, float]
+    tilt: tuple[float, float]
+    targets: tuple[WorldTarget, ...] = ()
+
+    @property
+    def pixels_per_degree(self) -> tuple[float, float]:
+        h, w = self.image.shape[:2]
+        return w / (self.pan[1] - self.pan[0]), h / (self.tilt[1] - self.tilt[0])
+
+    def to_pixel(self, pan, tilt):
+        """Continuous panorama (x, y) of world angles (row 0 is the top, the highest tilt)."""
+        px, py = self.pixels_per_degree
+        return (np.asarray(pan) - self.pan[0]) * px, (self.tilt[1] - np.asarray(tilt)) * py
+
+
+@functools.lru_cache(maxsize=4)
+def outcrop_panorama(
+    seed: int,
+    pan: tuple[float, float] = (-45.0, 45.0),
+    tilt: tuple[float, float] = (-15.0, 20.0),
+    pixels_per_degree: float = 24.0,
+    n_targets: int = 4,
+) -> Panorama:
+    """The built-in cliff, cached: a few seconds at the default 2160×840 pixels."""
+    w = round((pan[1] - pan[0]) * pixels_per_degree)
+    h = round((tilt[1] - tilt[0]) * pixels_per_degree)
+    scene = outcrop_scene(seed, shape=(h, w), n_targets=n_targets, tiles=(1, 1))
+    targets = tuple(
+        WorldTarget(
+            t.kind,
+            pan[0] + t.x / pixels_per_degree,
+            tilt[1] - t.y / pixels_per_degree,
+            t.radius / pixels_per_degree,
+        )
+        for t in scene.targets
+    )
+    image = scene.image
+    image.setflags(write=False)
+    return Panorama(image, pan, tilt, targets)
+
+
+class SimulatedCamera(Camera):
+    """Frames of a panorama seen from the PTU's live pose.
+
+    ``pose`` is awaited at every grab (typically ``PanTiltUnit.position``); without one,
+    the camera looks where :attr:`fixed_pose` says.
+    """
+
+    def __init__(
+        self,
+        panorama: Panorama,
+        camera: CameraModel | None = None,
+        *,
+        pose: PoseSource | None = None,
+        noise: float = 2.0,
+        seed: int = 0,
+    ) -> None:
+        self.panorama = panorama
+        self.model = camera or CameraModel()
+        self._wide_hfov = self.model.hfov
+        self.pose_source = pose
+        self.fixed_pose = (0.0, 0.0)
+        self.noise = noise
+        self._rng = np.random.default_rng(seed)
+        self._seq = 0
+        self._maps: tuple[tuple[float, float, float], np.ndarray, np.ndarray] | None = None
+
+    @property
+    def resolution(self) -> tuple[int, int]:
+        return self.model.width, self.model.height
+
+    async def open(self) -> None:
+        return None
+
+    async def close(self) -> None:
+        return None
+
+    async def zoom(self, level: float) -> None:
+        """Narrow the field of view ``level`` times (1 = widest), as a zoom lens would."""
+        if not level >= 1.0:
+            raise ValueError(f"zoom level must be >= 1, got {level!r}")
+        hfov = math.degrees(2 * math.atan(math.tan(math.radians(self._wide_hfov) / 2) / level))
+        self.model = CameraModel(self.model.width, self.model.height, hfov)
+        self._maps = None
+
+    def _remap_tables(self, pan: float, tilt: float) -> tuple[np.ndarray, np.ndarray]:
+        key = (pan, tilt, self.model.hfov)
+        if self._maps is None or self._maps[0] != key:
+            w, h = self.resolution
+            xs = np.arange(w, dtype=np.float64) + 0.5
+            ys = np.arange(h, dtype=np.float64) + 0.5
+            a, b = pixel_to_angles(xs[None, :], ys[:, None], pan, tilt, self.model)
+            px, py = self.panorama.to_pixel(a, b)
+            # remap samples pixel centres at integer coordinates.
+            self._maps = (key, (px - 0.5).astype(np.float32), (py - 0.5).astype(np.float32))
+        return self._maps[1], self._maps[2]
+
+    def render(self, pan: float, tilt: float) -> np.ndarray:
+        """The noiseless view at (pan, tilt) degrees."""
+        mx, my = self._remap_tables(pan, tilt)
+        # Beyond the panorama the edge is smeared outwards: a mirror would duplicate targets.
+        return cv2.remap(
+            self.panorama.image, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+        )
+
+    async def grab(self) -> Frame:
+        pan, tilt = await self.pose_source() if self.pose_source else self.fixed_pose
+        image = await asyncio.to_thread(self._expose, pan, tilt)
+        self._seq += 1
+        return Frame(image, time.time(), self._seq, Exposure(1 / 250, 0.0, False), (pan, tilt))
+
+    def _expose(self, pan: float, tilt: float) -> np.ndarray:
+        image = self.render(pan, tilt)
+        if self.noise > 0:
+            noise = self._rng.normal(0.0, self.noise, image.shape).astype(np.float32)
+            image = cv2.add(image, noise, dtype=cv2.CV_8U)
+        return image
+
+    @classmethod
+    def from_url(cls, url: str, pose: PoseSource | None = None) -> SimulatedCamera:
+        """``sim://outcrop?seed=N`` or ``sim:///path/pano.png?pan=-45,45&tilt=-15,20``.
+
+        Both take ``hfov`` (degrees), ``width``, ``height`` and ``noise`` (grey levels).
+        """
+        parts = urlsplit(url)
+        q = {k: v[-1] for k, v in parse_qs(parts.query).items()}
+
+        def span(name: str, default: tuple[float, float]) -> tuple[float, float]:
+            if name not in q:
+                return default
+            lo, hi = (float(v) for v in q[name].split(","))
+            if not lo < hi:
+                raise ValueError(f"{name}={q[name]}: want min,max")
+            return lo, hi
+
+        pan, tilt = span("pan", (-45.0, 45.0)), span("tilt", (-15.0, 20.0))
+        if parts.netloc == "outcrop":
+            panorama = outcrop_panorama(int(q.get("seed", 0)), pan, tilt)
+        elif parts.path:
+            try:
+                image = as_bgr8(read_image(Path(parts.path)))
+            except ImageError as exc:
+                raise CameraError(f"sim panorama {parts.path}: {exc}") from exc
+            panorama = Panorama(image, pan, tilt)
+        else:
+            raise ValueError(f"sim camera URL names no scene: {url!r}")
+        model = CameraModel(
+            int(q.get("width", 720)), int(q.get("height", 576)), float(q.get("hfov", 30.0))
+        )
+        return cls(
+            panorama, model, pose=pose, noise=float(q.get("noise", 2.0)), seed=int(q.get("seed", 0))
+        )

@@ -1,0 +1,193 @@
+"""Where the camera looks: unit positions, degrees, camera pixels and mosaic pixels.
+
+Conventions: pan is a rotation about the vertical axis, positive to the right; tilt a
+rotation about the camera's horizontal axis, positive up; both in degrees. Image pixels
+are continuous (x = column, y = row) coordinates with y down: pixel index k spans
+[k, k + 1), so its centre is k + 0.5 and the image centre is (width/2, height/2). The
+camera is a pinhole on the PTU's rotation centre (the seed's rig: a camcorder close to
+both axes, outcrop tens of metres away, so parallax is negligible). The mapping is exact
+under those assumptions, not the small-angle "degrees per pixel" approximation, so
+re-pointing stays right at the edges of a wide field of view and at steep tilts.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "CameraModel",
+    "MosaicGeometry",
+    "angles_to_pixel",
+    "degrees_to_positions",
+    "pixel_to_angles",
+    "positions_to_degrees",
+]
+
+
+def positions_to_degrees(positions: float, resolution: float) -> float:
+    """Unit positions to degrees, with ``resolution`` in arc-seconds per position as ``PR``
+    reports it.
+
+    >>> round(positions_to_degrees(3090, 185.1428), 3)
+    158.914
+    """
+    return positions * resolution / 3600.0
+
+
+def degrees_to_positions(degrees: float, resolution: float) -> int:
+    """Degrees to the nearest unit position.
+
+    >>> degrees_to_positions(-46.65, 185.1428)
+    -907
+    """
+    return round(degrees * 3600.0 / resolution)
+
+
+@dataclass(frozen=True)
+class CameraModel:
+    """A pinhole camera: image size in pixels and horizontal field of view in degrees."""
+
+    width: int = 720
+    height: int = 576
+    hfov: float = 30.0
+
+    @property
+    def focal(self) -> float:
+        """Focal length in pixels."""
+        return (self.width / 2.0) / math.tan(math.radians(self.hfov) / 2.0)
+
+    @property
+    def vfov(self) -> float:
+        return math.degrees(2.0 * math.atan((self.height / 2.0) / self.focal))
+
+    def scaled(self, factor: float) -> CameraModel:
+        """The same optics seen through an image reduced ``factor`` times."""
+        return CameraModel(round(self.width / factor), round(self.height / factor), self.hfov)
+
+
+def pixel_to_angles(x, y, pan: float, tilt: float, camera: CameraModel):
+    """World (pan, tilt) in degrees of the ray through pixel (x, y) of a camera at (pan, tilt).
+
+    Works on scalars and arrays alike.
+
+    >>> cam = CameraModel(720, 576, 30.0)
+    >>> [round(float(v), 6) for v in pixel_to_angles(360, 288, 12.0, -3.0, cam)]
+    [12.0, -3.0]
+    >>> [round(float(v), 3) for v in pixel_to_angles(720, 288, 0.0, 0.0, cam)]
+    [15.0, 0.0]
+    """
+    f = camera.focal
+    cx, cy = camera.width / 2.0, camera.height / 2.0
+    dx = (np.asarray(x, dtype=np.float64) - cx) / f
+    dy = -(np.asarray(y, dtype=np.float64) - cy) / f
+    t, p = math.radians(tilt), math.radians(pan)
+    # Tilt about the camera's x axis, then pan about the vertical.
+    yw = dy * math.cos(t) + math.sin(t)
+    zt = -dy * math.sin(t) + math.cos(t)
+    xw = dx * math.cos(p) + zt * math.sin(p)
+    zw = -dx * math.sin(p) + zt * math.cos(p)
+    return np.degrees(np.arctan2(xw, zw)), np.degrees(np.arctan2(yw, np.hypot(xw, zw)))
+
+
+def angles_to_pixel(pan_w, tilt_w, pan: float, tilt: float, camera: CameraModel):
+    """Pixel (x, y) where the world direction (pan_w, tilt_w) appears; NaN behind the camera.
+
+    >>> cam = CameraModel(720, 576, 30.0)
+    >>> x, y = pixel_to_angles(100.0, 50.0, 20.0, 10.0, cam)
+    >>> [round(float(v), 6) for v in angles_to_pixel(x, y, 20.0, 10.0, cam)]
+    [100.0, 50.0]
+    """
+    pw, tw = np.radians(np.asarray(pan_w, np.float64)), np.radians(np.asarray(tilt_w, np.float64))
+    xw, yw, zw = np.cos(tw) * np.sin(pw), np.sin(tw), np.cos(tw) * np.cos(pw)
+    t, p = math.radians(tilt), math.radians(pan)
+    dx = xw * math.cos(p) - zw * math.sin(p)
+    zt = xw * math.sin(p) + zw * math.cos(p)
+    dy = yw * math.cos(t) - zt * math.sin(t)
+    dz = yw * math.sin(t) + zt * math.cos(t)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dz = np.where(dz > 1e-9, dz, np.nan)
+        f = camera.focal
+        return camera.width / 2.0 + f * dx / dz, camera.height / 2.0 - f * dy / dz
+
+
+@dataclass(frozen=True)
+class MosaicGeometry:
+    """An M×N quasi-mosaic of butted frames, each reduced ``downsample`` times.
+
+    Tile (row i, col j) was shot at ``pan = pan0 + (j - (cols-1)/2)·step_pan`` and
+    ``tilt = tilt0 - (i - (rows-1)/2)·step_tilt`` (row 0 on top); the steps default to
+    the field of view, which is the seed's image butting with no overlap.
+    """
+
+    camera: CameraModel
+    rows: int
+    cols: int
+    pan0: float = 0.0
+    tilt0: float = 0.0
+    downsample: float = 1.0
+    step_pan: float | None = None
+    step_tilt: float | None = None
+
+    @property
+    def tile_size(self) -> tuple[int, int]:
+        """(width, height) of one reduced tile in the mosaic."""
+        small = self.camera.scaled(self.downsample)
+        return small.width, small.height
+
+    @property
+    def size(self) -> tuple[int, int]:
+        w, h = self.tile_size
+        return w * self.cols, h * self.rows
+
+    def tile_pose(self, row: int, col: int) -> tuple[float, float]:
+        sp = self.step_pan if self.step_pan is not None else self.camera.hfov
+        st = self.step_tilt if self.step_tilt is not None else self.camera.vfov
+        return (
+            self.pan0 + (col - (self.cols - 1) / 2.0) * sp,
+            self.tilt0 - (row - (self.rows - 1) / 2.0) * st,
+        )
+
+    def serpentine(self) -> list[tuple[int, int]]:
+        """Tile order that never sweeps back across a row: left-right, then right-left.
+
+        >>> MosaicGeometry(CameraModel(), 2, 3).serpentine()
+        [(0, 0), (0, 1), (0, 2), (1, 2), (1, 1), (1, 0)]
+        """
+        order = []
+        for r in range(self.rows):
+            cols = range(self.cols) if r % 2 == 0 else range(self.cols - 1, -1, -1)
+            order.extend((r, c) for c in cols)
+        return order
+
+    def to_angles(self, mx: float, my: float) -> tuple[float, float]:
+        """World (pan, tilt) of a mosaic pixel: the ray through it in the tile it lies in.
+
+        >>> g = MosaicGeometry(CameraModel(720, 576, 30.0), 2, 3, downsample=4)
+        >>> [round(v, 6) for v in g.to_angles(90, 72)]  # centre of tile (0, 0)
+        [-30.0, 12.098791]
+        """
+        w, h = self.tile_size
+        col = min(max(int(mx // w), 0), self.cols - 1)
+        row = min(max(int(my // h), 0), self.rows - 1)
+        fx, fy = self.camera.width / w, self.camera.height / h
+        x = (mx - col * w) * fx
+        y = (my - row * h) * fy
+        pan, tilt = self.tile_pose(row, col)
+        a, b = pixel_to_angles(x, y, pan, tilt, self.camera)
+        return float(a), float(b)
+
+    def to_mosaic(self, pan_w: float, tilt_w: float) -> tuple[float, float] | None:
+        """Mosaic pixel where a world direction appears, or ``None`` if no tile saw it."""
+        w, h = self.tile_size
+        fx, fy = self.camera.width / w, self.camera.height / h
+        for row in range(self.rows):
+            for col in range(self.cols):
+                pan, tilt = self.tile_pose(row, col)
+                x, y = angles_to_pixel(pan_w, tilt_w, pan, tilt, self.camera)
+                x, y = float(x), float(y)
+                if 0 <= x < self.camera.width and 0 <= y < self.camera.height:
+                    return col * w + x / fx, row * h + y / fy
+        return None
