@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo test bench bench-quality bench-speed lint clean
+.PHONY: demo test bench bench-quality bench-speed bench-ptu lint clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -23,13 +23,16 @@ test: $(STAMP)
 	$(PY) -m ruff check .
 	$(PY) -m pytest -q
 
-bench: bench-quality bench-speed
+bench: bench-quality bench-speed bench-ptu
 
 bench-quality: $(STAMP)
 	$(PY) -m bench.quality --scenes 120
 
 bench-speed: $(STAMP)
 	$(PY) -m bench.speed
+
+bench-ptu: $(STAMP)
+	$(PY) -m bench.ptu
 
 lint: $(STAMP)
 	$(PY) -m ruff check .

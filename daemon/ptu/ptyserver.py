@@ -5,8 +5,9 @@ The real serial driver opens the pty's slave (or a stable symlink to it, like th
 are :class:`Fault` rules matched against the commands the unit receives: garbage before a
 reply, a dropped reply, a slow reply, a hang-up (the pty closes, the link disappears and
 comes back later on a new pty, like an unplugged adapter). A power-up banner is printed
-at start and after each come-back. Output is paced at the line's baud rate, so command
-round trips take as long as on the real 9600-baud link.
+at start and after each come-back. Both directions are paced at the line's baud rate (a reply
+leaves once the command's bytes would have arrived), so command round trips take as long
+as on the real 9600-baud link.
 """
 
 from __future__ import annotations
@@ -196,17 +197,19 @@ class PtyEmulatorServer:
             if b in b" \r\n":
                 token = self._token.decode("ascii", "replace")
                 self._token.clear()
-                self._command(token, b)
+                # The unit acts once the command has crossed the line: its own bytes' time.
+                wire = 10 * (len(token) + 1) / self.baud if self.baud else 0.0
+                self._command(token, b, wire)
                 if not self.connected:
                     return
             else:
                 self._token += b
                 self._send(self.emulator.receive(b))
 
-    def _command(self, token: str, delimiter: bytes) -> None:
+    def _command(self, token: str, delimiter: bytes, wire: float) -> None:
         fired = [f for f in self.faults if token and f.fires(token)]
         out = self.emulator.receive(delimiter)
-        delay = 0.0
+        delay = wire
         for f in fired:
             _LOGGER.debug("fault %s on %r", f.action, token)
             if f.action == "garbage":
@@ -214,7 +217,7 @@ class PtyEmulatorServer:
             elif f.action == "drop":
                 out = b""
             elif f.action == "delay":
-                delay = max(delay, f.seconds)
+                delay = max(delay, wire + f.seconds)
             elif f.action == "hangup":
                 self.hangup(f.seconds)
                 return

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from bench import quality, speed
+from bench import ptu, quality, speed
 from daemon.demo import run_demo
 
 
@@ -30,3 +30,13 @@ def test_quality_benchmark_smoke():
 def test_speed_benchmark_smoke():
     rows = speed.run(sizes={"tiny": (54, 96)}, repeats=1)
     assert rows[0]["name"] == "tiny" and rows[0]["ms"] > 0 and rows[0]["floor_ms"] > 0
+
+
+def test_ptu_benchmark_smoke(capsys):
+    assert ptu.main(["--queries", "5", "--time-scale", "20", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert set(out["round_trip"]) >= {"pty, paced at 9600 baud", "in-process emulator (baseline)"}
+    assert len(out["moves"]) == len(ptu.MOVES)
+    for move in out["moves"]:
+        # At 20x, the reply's line time alone is ~60 ms emulated; the model is the floor.
+        assert move["measured_s"] >= move["predicted_s"] - 0.01
