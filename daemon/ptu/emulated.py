@@ -12,7 +12,7 @@ from .emulator import Ptu46Emulator
 from .errors import PtuConnectionError, PtuTimeoutError
 from .ptyserver import Fault, PtyEmulatorServer
 from .serial import SerialPtu
-from .wire import LineFramer, Reply, format_command, parse_reply, reply_float
+from .wire import LineFramer, Reply, format_command, match_reply
 
 __all__ = ["EmulatedPtu", "PtyPtu"]
 
@@ -53,11 +53,11 @@ class EmulatedPtu(CommandedPtu):
         async with self._lock:
             lines = self._framer.feed(self.emulator.receive(data))
             try:
-                async with asyncio.timeout(timeout or 1.0 + self.emulator.busy * 120.0):
+                async with asyncio.timeout(timeout or (120.0 if self.emulator.busy else 1.0)):
                     while True:
                         for line in lines:
-                            reply = parse_reply(line, sent)
-                            if reply and not (numeric and reply.ok and reply_float(reply) is None):
+                            reply = match_reply(line, sent, numeric)
+                            if reply:
                                 return reply
                         await asyncio.sleep(_POLL)
                         lines = self._framer.feed(self.emulator.poll())

@@ -28,8 +28,7 @@ from .wire import (
     LineFramer,
     Reply,
     format_command,
-    parse_reply,
-    reply_float,
+    match_reply,
     split_limit_events,
 )
 
@@ -244,8 +243,8 @@ class SerialPtu(CommandedPtu):
                         if line is None:
                             self._lines.put_nowait(None)
                             raise PtuConnectionError(f"PTU on {self.port} went away during {sent}")
-                        reply = parse_reply(line, sent)
-                        if reply is None or (numeric and reply.ok and reply_float(reply) is None):
+                        reply = match_reply(line, sent, numeric)
+                        if reply is None:
                             self._stray(line)
                             continue
                         if command != "R":

@@ -19,6 +19,7 @@ __all__ = [
     "LineFramer",
     "Reply",
     "format_command",
+    "match_reply",
     "parse_reply",
     "reply_float",
     "reply_int",
@@ -113,6 +114,20 @@ def parse_reply(line: str, sent: str | None = None) -> Reply | None:
     if line[0] == "!":
         return Reply(False, line[1:].strip(), events, echo)
     return None
+
+
+def match_reply(line: str, sent: str, numeric: bool = False) -> Reply | None:
+    """The reply to ``sent`` in ``line``, or ``None`` if the line answers something else.
+
+    ``numeric``: ``sent`` is a query, so a success without a number is stale, not its answer.
+
+    >>> match_reply("*", "PP", numeric=True) is None, match_reply("* 5", "PP", numeric=True).text
+    (True, '5')
+    """
+    reply = parse_reply(line, sent)
+    if reply is None or (numeric and reply.ok and reply_float(reply) is None):
+        return None
+    return reply
 
 
 def reply_int(reply: Reply) -> int | None:
