@@ -1,0 +1,334 @@
+"""Frozen message dataclasses, one per kind, with tolerant but strict decoding.
+
+Tolerant: unknown fields are ignored and fields missing from an older peer take their
+defaults. Strict: a present field of the wrong type, a non-finite number or an
+out-of-range value raises :class:`~protocol.errors.InvalidFieldError`, so malformed
+commands never reach the hardware.
+"""
+
+from __future__ import annotations
+
+import math
+import types
+import typing
+from dataclasses import MISSING, asdict, dataclass, fields
+from typing import Any, ClassVar, Self
+
+from .errors import DecodeError, InvalidFieldError
+
+__all__ = [
+    "MESSAGES",
+    "RESULTS",
+    "Ack",
+    "ArchiveGet",
+    "ArchiveList",
+    "ChooseTarget",
+    "Event",
+    "Hello",
+    "InterestPoint",
+    "InterestResult",
+    "Message",
+    "PtuGoto",
+    "PtuHalt",
+    "PtuHome",
+    "PtuJog",
+    "PtuState",
+    "ReleaseControl",
+    "SurveyCancel",
+    "SurveyProgress",
+    "SurveyStart",
+    "SurveyStatus",
+    "TakeControl",
+    "message_from",
+]
+
+RESULTS = ("OK", "REJECTED", "LIMIT", "TIMEOUT", "BUSY", "ERROR")
+_MAX_TEXT = 4096
+
+
+def _check(name: str, value: Any, tp: Any) -> Any:
+    """``value`` converted to ``tp`` (int, float, str, bool, bytes, X | None, tuple[X, ...],
+    or a Message), or InvalidFieldError."""
+    origin = typing.get_origin(tp)
+    if origin in (typing.Union, types.UnionType):
+        args = typing.get_args(tp)
+        if value is None and type(None) in args:
+            return None
+        (inner,) = [a for a in args if a is not type(None)]
+        return _check(name, value, inner)
+    if origin is tuple:
+        inner = typing.get_args(tp)[0]
+        if not isinstance(value, list | tuple):
+            raise InvalidFieldError(f"{name}: expected a list")
+        return tuple(_check(f"{name}[{i}]", v, inner) for i, v in enumerate(value))
+    if isinstance(tp, type) and issubclass(tp, Message):
+        if not isinstance(value, dict):
+            raise InvalidFieldError(f"{name}: expected a map")
+        return tp.from_body(value)
+    if tp is bool:
+        if not isinstance(value, bool):
+            raise InvalidFieldError(f"{name}: expected true/false")
+        return value
+    if tp is int:
+        if not isinstance(value, int) or isinstance(value, bool):
+            raise InvalidFieldError(f"{name}: expected an integer")
+        return value
+    if tp is float:
+        if not isinstance(value, int | float) or isinstance(value, bool):
+            raise InvalidFieldError(f"{name}: expected a number")
+        if not math.isfinite(value):
+            raise InvalidFieldError(f"{name}: must be finite")
+        return float(value)
+    if tp is str:
+        if not isinstance(value, str) or len(value) > _MAX_TEXT:
+            raise InvalidFieldError(f"{name}: expected text of at most {_MAX_TEXT} characters")
+        return value
+    if tp is bytes:
+        if not isinstance(value, bytes):
+            raise InvalidFieldError(f"{name}: expected binary data")
+        return value
+    raise TypeError(f"unsupported field type {tp!r}")
+
+
+@dataclass(frozen=True)
+class Message:
+    """Base of every message; ``KIND`` names it in the envelope."""
+
+    KIND: ClassVar[str] = ""
+
+    @classmethod
+    def from_body(cls, body: dict[str, Any]) -> Self:
+        hints = typing.get_type_hints(cls)
+        values = {}
+        for f in fields(cls):
+            if f.name in body:
+                values[f.name] = _check(
+                    f"{cls.KIND or cls.__name__}.{f.name}", body[f.name], hints[f.name]
+                )
+            elif f.default is MISSING and f.default_factory is MISSING:
+                raise DecodeError(f"{cls.KIND}: missing field {f.name!r}")
+        try:
+            return cls(**values)
+        except ValueError as exc:
+            raise InvalidFieldError(f"{cls.KIND}: {exc}") from None
+
+    def to_body(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def _in(name: str, value: float, lo: float, hi: float) -> None:
+    if not lo <= value <= hi:
+        raise ValueError(f"{name} {value} outside {lo}..{hi}")
+
+
+# -- commands ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PtuGoto(Message):
+    """Point at absolute (pan, tilt) degrees; the unit's own limits are checked later."""
+
+    KIND: ClassVar[str] = "ptu.goto"
+    pan: float
+    tilt: float
+
+    def __post_init__(self) -> None:
+        _in("pan", self.pan, -360.0, 360.0)
+        _in("tilt", self.tilt, -180.0, 180.0)
+
+
+@dataclass(frozen=True)
+class PtuJog(Message):
+    """Step by (pan, tilt) degrees from where the head is."""
+
+    KIND: ClassVar[str] = "ptu.jog"
+    pan: float = 0.0
+    tilt: float = 0.0
+
+    def __post_init__(self) -> None:
+        _in("pan", self.pan, -90.0, 90.0)
+        _in("tilt", self.tilt, -90.0, 90.0)
+
+
+@dataclass(frozen=True)
+class PtuHalt(Message):
+    KIND: ClassVar[str] = "ptu.halt"
+
+
+@dataclass(frozen=True)
+class PtuHome(Message):
+    KIND: ClassVar[str] = "ptu.home"
+
+
+@dataclass(frozen=True)
+class SurveyStart(Message):
+    """Shoot a rows × cols mosaic centred where the head points (or at pan0/tilt0)."""
+
+    KIND: ClassVar[str] = "survey.start"
+    rows: int = 2
+    cols: int = 3
+    downsample: float = 4.0
+    profile: str = "default"
+    pan0: float | None = None
+    tilt0: float | None = None
+
+    def __post_init__(self) -> None:
+        _in("rows", self.rows, 1, 16)
+        _in("cols", self.cols, 1, 32)
+        _in("downsample", self.downsample, 1.0, 16.0)
+
+
+@dataclass(frozen=True)
+class SurveyCancel(Message):
+    KIND: ClassVar[str] = "survey.cancel"
+
+
+@dataclass(frozen=True)
+class SurveyStatus(Message):
+    KIND: ClassVar[str] = "survey.status"
+
+
+@dataclass(frozen=True)
+class ChooseTarget(Message):
+    """The operator's choice at a station: rank 1..3, or 0 for none."""
+
+    KIND: ClassVar[str] = "target.choose"
+    station: str
+    rank: int
+
+    def __post_init__(self) -> None:
+        _in("rank", self.rank, 0, 3)
+
+
+@dataclass(frozen=True)
+class TakeControl(Message):
+    KIND: ClassVar[str] = "control.take"
+    client: str
+
+
+@dataclass(frozen=True)
+class ReleaseControl(Message):
+    KIND: ClassVar[str] = "control.release"
+    client: str
+
+
+@dataclass(frozen=True)
+class ArchiveList(Message):
+    KIND: ClassVar[str] = "archive.list"
+    session: str = ""
+
+
+@dataclass(frozen=True)
+class ArchiveGet(Message):
+    KIND: ClassVar[str] = "archive.get"
+    session: str
+    product: str
+
+
+# -- replies and telemetry ---------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Ack(Message):
+    """Every command's answer: ``result`` in RESULTS, ``detail`` for humans."""
+
+    KIND: ClassVar[str] = "ack"
+    result: str
+    detail: str = ""
+
+    def __post_init__(self) -> None:
+        if self.result not in RESULTS:
+            raise ValueError(f"result {self.result!r} not one of {', '.join(RESULTS)}")
+
+    @property
+    def ok(self) -> bool:
+        return self.result == "OK"
+
+
+@dataclass(frozen=True)
+class Hello(Message):
+    KIND: ClassVar[str] = "hello"
+    major: int
+    minor: int
+    build: str = ""
+    rig: str = ""
+
+
+@dataclass(frozen=True)
+class PtuState(Message):
+    KIND: ClassVar[str] = "ptu.state"
+    pan: float
+    tilt: float
+    moving: bool
+    link: str = "ready"
+    controller: str = ""
+
+
+@dataclass(frozen=True)
+class SurveyProgress(Message):
+    KIND: ClassVar[str] = "survey.progress"
+    station: str
+    stage: str
+    done: int = 0
+    total: int = 0
+    eta_s: float | None = None
+
+
+@dataclass(frozen=True)
+class InterestPoint(Message):
+    KIND: ClassVar[str] = "interest.point"
+    rank: int
+    x: float
+    y: float
+    score: float
+    pan: float
+    tilt: float
+    why: str = ""
+
+
+@dataclass(frozen=True)
+class InterestResult(Message):
+    KIND: ClassVar[str] = "survey.result"
+    station: str
+    points: tuple[InterestPoint, ...] = ()
+    width: int = 0
+    height: int = 0
+
+
+@dataclass(frozen=True)
+class Event(Message):
+    KIND: ClassVar[str] = "event"
+    level: str
+    text: str
+
+
+MESSAGES: dict[str, type[Message]] = {
+    m.KIND: m
+    for m in (
+        PtuGoto,
+        PtuJog,
+        PtuHalt,
+        PtuHome,
+        SurveyStart,
+        SurveyCancel,
+        SurveyStatus,
+        ChooseTarget,
+        TakeControl,
+        ReleaseControl,
+        ArchiveList,
+        ArchiveGet,
+        Ack,
+        Hello,
+        PtuState,
+        SurveyProgress,
+        InterestPoint,
+        InterestResult,
+        Event,
+    )
+}
+
+
+def message_from(kind: str, body: dict[str, Any]) -> Message | None:
+    """The message of a known kind; ``None`` for kinds this side does not know (ignored)."""
+    cls = MESSAGES.get(kind)
+    return None if cls is None else cls.from_body(body)
