@@ -82,9 +82,11 @@ class Ptu46Emulator:
         self._last = 0.0
         self.pan = self._axis("Pan", "P", m.pan_min, m.pan_max, m.pan_resolution)
         self.tilt = self._axis("Tilt", "T", m.tilt_min, m.tilt_max, m.tilt_resolution)
+        # Power-up defaults: echo on, verbose, soft limits, immediate, position control.
+        self.echo = self.verbose = self.limits = self.immediate = True
+        self.velocity_mode = False
         self._factory = self._snapshot()
         self._saved = self._factory
-        self._restore(self._saved)
         self._token = bytearray()
         self._queue = bytearray()
         self._deferred: _Deferred | None = None
@@ -193,10 +195,7 @@ class Ptu46Emulator:
             snap.update(
                 {f"{ax.letter}{k}": getattr(ax.motion, k) for k in ("speed", "base", "accel")}
             )
-        if hasattr(self, "echo"):
-            snap.update({k: getattr(self, k) for k in _SETTINGS})
-        else:
-            snap.update(echo=True, verbose=True, limits=True, immediate=True, velocity_mode=False)
+        snap.update({k: getattr(self, k) for k in _SETTINGS})
         return snap
 
     def _restore(self, snap: dict[str, object]) -> None:
@@ -221,9 +220,6 @@ class Ptu46Emulator:
 
     def _text(self, verbose: str, terse: object) -> str:
         return "* " + (verbose if self.verbose else str(terse))
-
-    def _moving(self, ax: _AxisState) -> bool:
-        return ax.motion.moving
 
     def _set_target(self, ax: _AxisState, pos: int) -> str:
         if self.limits and pos > ax.hi:
@@ -348,7 +344,7 @@ def _static_setting(letter: str, what: str, verbose: str, check: Callable[..., s
         )
         if n is None:
             return e._text(verbose.format(name=ax.name, v=current), current)
-        if e._moving(ax):
+        if ax.motion.moving:
             label = {"accel": "acceleration", "base": "base speed"}.get(what, f"{what} speed")
             return f"! {ax.name} {label} cannot be changed while the axis is moving"
         error = check(e, ax, n)
