@@ -17,7 +17,7 @@ $(STAMP): pyproject.toml | $(PY)
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(PY) -m daemon demo --out $(OUT)/demo
+	$(PY) -m clients demo --out $(OUT)/demo
 
 test: $(STAMP)
 	$(PY) -m ruff check .

@@ -1,4 +1,4 @@
-"""``cyborgd``: the rig's command line (offline analysis, the demo, the PTU emulator)."""
+"""``cyborgd``: the rig's service (``run``), offline analysis, the PTU emulator."""
 
 from __future__ import annotations
 
@@ -6,16 +6,61 @@ import argparse
 import asyncio
 import logging
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
+import zenoh
+
+from protocol.transport import MODES, Transport
 
 from .analyze import AnalyzeOptions, analyze_files
+from .app import run
+from .camera import CameraError
+from .config import load
 from .demo import run_demo
+from .ptu import PtuError
 from .ptu.emulator import Ptu46Emulator
 from .ptu.models import MODELS
 from .ptu.ptyserver import BANNER, PtyEmulatorServer, parse_fault, serve
 from .vision.params import PROFILES, profile
+
+
+def _run_parser(sub: argparse._SubParsersAction) -> None:
+    ap = sub.add_parser("run", help="serve the rig on the bus (the systemd service runs this)")
+    ap.add_argument("--config", type=Path, help="TOML config file (see systemd/cyborgd.toml)")
+    ap.add_argument("--rig", help="rig name: keys live under cyborg/<rig>/")
+    ap.add_argument("--ptu", metavar="URL", help="serial:///dev/ptu, pty://..., emu://...")
+    ap.add_argument("--camera", metavar="URL", help="v4l2://0, file://..., sim://outcrop")
+    ap.add_argument("--archive", type=Path, metavar="DIR", help="session archive folder")
+    ap.add_argument("--mode", choices=MODES, help="zenoh mode")
+    ap.add_argument("--listen", action="append", metavar="ENDPOINT", help="e.g. tcp/0.0.0.0:7447")
+    ap.add_argument("--connect", action="append", metavar="ENDPOINT", help="a router or peer")
+
+
+def _run_daemon(args: argparse.Namespace) -> int:
+    try:
+        cfg = load(args.config, rig=args.rig, ptu=args.ptu, archive=args.archive)
+        if args.camera:
+            cfg = replace(cfg, camera=replace(cfg.camera, url=args.camera))
+        z = cfg.zenoh
+        cfg = replace(
+            cfg,
+            zenoh=Transport(
+                args.mode or z.mode,
+                tuple(args.listen) if args.listen is not None else z.listen,
+                tuple(args.connect) if args.connect is not None else z.connect,
+                z.shared_memory,
+            ),
+        )
+    except ValueError as exc:
+        print(f"cyborgd: {exc}", file=sys.stderr)
+        return 2
+    try:
+        return asyncio.run(run(cfg))
+    except (PtuError, CameraError, OSError, zenoh.ZError) as exc:
+        print(f"cyborgd: {exc}", file=sys.stderr)
+        return 1
 
 
 def _analyze_parser(sub: argparse._SubParsersAction) -> None:
@@ -98,12 +143,17 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="cyborgd", description=__doc__)
     parser.add_argument("-v", "--verbose", action="store_true")
     sub = parser.add_subparsers(dest="command", required=True)
+    _run_parser(sub)
     _analyze_parser(sub)
     _demo_parser(sub)
     _emulator_parser(sub)
     args = parser.parse_args(argv)
     logging.basicConfig(
-        level=logging.DEBUG if args.verbose else logging.WARNING,
+        level=logging.DEBUG
+        if args.verbose
+        else logging.INFO
+        if args.command == "run"
+        else logging.WARNING,
         format="%(levelname)s %(name)s: %(message)s",
     )
     # OpenCV and libpng print their own warnings for bad files; ours are one line each.
@@ -119,6 +169,8 @@ def main(argv: list[str] | None = None) -> int:
             params = params.replace(top_n=args.top)
         opts = AnalyzeOptions(args.out, args.profile, params, args.downsample, args.json)
         return analyze_files(args.images, opts)
+    if args.command == "run":
+        return _run_daemon(args)
     if args.command == "ptu-emulator":
         return _run_emulator(args, parser)
     return run_demo(args.out, args.seed)

@@ -16,13 +16,13 @@ import numpy as np
 from .imageio import ImageError, read_image, write_atomic, write_png
 from .vision import render
 from .vision.interest import PLANE_NAMES, describe
-from .vision.params import VisionParams
+from .vision.params import VisionParams, profile
 from .vision.pipeline import Analysis, analyze, as_bgr8
 from .vision.uncommon import uncommon_map
 
 _LOGGER = logging.getLogger(__name__)
 
-__all__ = ["AnalyzeOptions", "analyze_files", "analyze_image", "write_products"]
+__all__ = ["AnalyzeOptions", "analyse_into", "analyze_files", "analyze_image", "write_products"]
 
 
 @dataclass(frozen=True)
@@ -169,3 +169,9 @@ def analyze_files(
             )
             print(f"{path}: {best or 'no interest points'} -> {folder}/", file=stdout, flush=True)
     return 1 if failed else 0
+
+
+def analyse_into(folder: str, image: np.ndarray, profile_name: str, label: str) -> dict[str, Any]:
+    """The vision worker's job: analyse a mosaic and write every product into ``folder``."""
+    bgr, res = analyze_image(image, profile(profile_name))
+    return write_products(Path(folder), label, bgr, res, profile_name)

@@ -20,10 +20,14 @@ __all__ = [
     "MESSAGES",
     "RESULTS",
     "Ack",
+    "ArchiveData",
     "ArchiveGet",
     "ArchiveList",
+    "ArchiveListing",
+    "Chip",
     "ChooseTarget",
     "Event",
+    "FrameHeader",
     "Hello",
     "InterestPoint",
     "InterestResult",
@@ -34,6 +38,7 @@ __all__ = [
     "PtuJog",
     "PtuState",
     "ReleaseControl",
+    "Status",
     "SurveyCancel",
     "SurveyProgress",
     "SurveyStart",
@@ -302,6 +307,62 @@ class Event(Message):
     text: str
 
 
+@dataclass(frozen=True)
+class FrameHeader(Message):
+    """The attachment of a live frame; the payload is the JPEG itself."""
+
+    KIND: ClassVar[str] = "cam.frame"
+    seq: int
+    width: int
+    height: int
+    pan: float | None = None
+    tilt: float | None = None
+
+
+@dataclass(frozen=True)
+class Chip(Message):
+    """A full-resolution frame taken pointing at one interest point."""
+
+    KIND: ClassVar[str] = "survey.chip"
+    station: str
+    rank: int
+    pan: float
+    tilt: float
+    product: str
+    jpeg: bytes = b""
+
+
+@dataclass(frozen=True)
+class Status(Message):
+    """The answer to ``survey/status``: what the rig is doing and who drives it."""
+
+    KIND: ClassVar[str] = "status"
+    state: str
+    session: str = ""
+    station: str = ""
+    distance_m: float = 0.0
+    controller: str = ""
+    worker_pid: int = 0
+    last_error: str = ""
+
+
+@dataclass(frozen=True)
+class ArchiveListing(Message):
+    """Sessions (when ``session`` is empty) or one session's products, as relative paths."""
+
+    KIND: ClassVar[str] = "archive.listing"
+    session: str
+    items: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class ArchiveData(Message):
+    KIND: ClassVar[str] = "archive.data"
+    session: str
+    product: str
+    data: bytes
+
+
 MESSAGES: dict[str, type[Message]] = {
     m.KIND: m
     for m in (
@@ -324,6 +385,11 @@ MESSAGES: dict[str, type[Message]] = {
         InterestPoint,
         InterestResult,
         Event,
+        FrameHeader,
+        Chip,
+        Status,
+        ArchiveListing,
+        ArchiveData,
     )
 }
 

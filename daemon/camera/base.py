@@ -53,6 +53,12 @@ class Camera(ABC):
     def resolution(self) -> tuple[int, int]:
         """(width, height) of the frames ``grab`` returns."""
 
+    @property
+    def hfov(self) -> float | None:
+        """Horizontal field of view in degrees at the widest zoom, if the camera knows it
+        (a real lens does not say; the config supplies it)."""
+        return None
+
     @abstractmethod
     async def open(self) -> None: ...
 

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import asyncio
 import functools
-import math
 import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
@@ -120,6 +119,10 @@ class SimulatedCamera(Camera):
     def resolution(self) -> tuple[int, int]:
         return self.model.width, self.model.height
 
+    @property
+    def hfov(self) -> float:
+        return self._wide_hfov
+
     async def open(self) -> None:
         return None
 
@@ -130,8 +133,8 @@ class SimulatedCamera(Camera):
         """Narrow the field of view ``level`` times (1 = widest), as a zoom lens would."""
         if not level >= 1.0:
             raise ValueError(f"zoom level must be >= 1, got {level!r}")
-        hfov = math.degrees(2 * math.atan(math.tan(math.radians(self._wide_hfov) / 2) / level))
-        self.model = CameraModel(self.model.width, self.model.height, hfov)
+        wide = CameraModel(self.model.width, self.model.height, self._wide_hfov)
+        self.model = wide.zoomed(level)
         self._maps = None
 
     def _remap_tables(self, pan: float, tilt: float) -> tuple[np.ndarray, np.ndarray]:

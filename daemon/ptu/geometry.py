@@ -67,6 +67,16 @@ class CameraModel:
         """The same optics seen through an image reduced ``factor`` times."""
         return CameraModel(round(self.width / factor), round(self.height / factor), self.hfov)
 
+    def zoomed(self, level: float) -> CameraModel:
+        """The same sensor behind a lens ``level`` times longer (a zoom, or walking closer
+        to a distant flat cliff).
+
+        >>> round(CameraModel(hfov=30.0).zoomed(5.0).hfov, 3)
+        6.101
+        """
+        half = math.atan(math.tan(math.radians(self.hfov) / 2.0) / level)
+        return CameraModel(self.width, self.height, math.degrees(2.0 * half))
+
 
 def pixel_to_angles(x, y, pan: float, tilt: float, camera: CameraModel):
     """World (pan, tilt) in degrees of the ray through pixel (x, y) of a camera at (pan, tilt).

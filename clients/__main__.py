@@ -1,0 +1,24 @@
+"""``cyborg``: clients of the rig's bus."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .demo import run_demo
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="cyborg", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+    demo = sub.add_parser("demo", help="a simulated field day: daemon, emulator, three stations")
+    demo.add_argument("--out", type=Path, default=Path("out/demo"))
+    demo.add_argument("--time-scale", type=float, default=4.0, help="PTU emulator speed-up")
+    demo.add_argument("--seed", type=int, default=3, help="which generated cliff")
+    args = parser.parse_args(argv)
+    return run_demo(args.out, args.time_scale, args.seed)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

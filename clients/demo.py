@@ -1,0 +1,135 @@
+"""``cyborg demo``: a complete simulated field day through the bus.
+
+Starts ``cyborgd`` with the PTU-46 emulator on a pseudo-terminal (the real serial
+driver at 9600 baud) and the simulated PAL camera on a generated cliff, then acts as
+the field scientist: take control, survey, choose the top target, walk closer (the
+simulated camera magnifies by the distance ratio), survey again, down to 10 m.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import sys
+import time
+from pathlib import Path
+
+from protocol.messages import (
+    ChooseTarget,
+    InterestResult,
+    SurveyProgress,
+    SurveyStart,
+    TakeControl,
+)
+from protocol.transport import Transport
+
+from .launch import free_port, launch
+from .rigclient import RigClient, RigError
+
+__all__ = ["demo_config", "run_demo", "run_station"]
+
+RIG = "demo"
+
+
+def demo_config(archive: Path, port: int, time_scale: float, seed: int) -> str:
+    return f"""\
+rig = "{RIG}"
+archive = "{archive}"
+ptu = "pty://?model=D46-17&time_scale={time_scale:g}"
+
+[camera]
+url = "sim://outcrop?seed={seed}&hfov=30"
+
+[zenoh]
+mode = "peer"
+listen = ["tcp/127.0.0.1:{port}"]
+
+[frames]
+rate = 5
+
+[survey]
+rows = 2
+cols = 3
+downsample = 4
+approach = [300, 60, 10]
+simulate_approach = true
+"""
+
+
+async def run_station(
+    client: RigClient,
+    progress: asyncio.Queue,
+    results: asyncio.Queue,
+    request: SurveyStart,
+    timeout: float = 120.0,
+) -> InterestResult:
+    """Start a survey and follow it to its result; raise RigError if it fails."""
+    station = (await client.command("survey/start", request)).detail
+    async with asyncio.timeout(timeout):
+        while True:
+            p: SurveyProgress = await progress.get()
+            if p.station != station:
+                continue
+            if p.stage in ("failed", "incomplete"):
+                raise RigError(f"station {station} {p.stage}")
+            if p.stage == "done":
+                break
+        while True:
+            result: InterestResult = await results.get()
+            if result.station == station:
+                return result
+
+
+async def _demo(out: Path, time_scale: float, seed: int) -> int:
+    out.mkdir(parents=True, exist_ok=True)
+    archive = (out / "archive").resolve()
+    port = free_port()
+    config = out / "cyborgd.toml"
+    config.write_text(demo_config(archive, port, time_scale, seed))
+    t0 = time.perf_counter()
+    async with launch(["--config", str(config)], out / "cyborgd.log") as daemon:
+        print(f"cyborgd running (pid {daemon.pid}), PTU emulator on a pty, simulated camera")
+        with RigClient.open(
+            Transport(connect=(f"tcp/127.0.0.1:{port}",)), RIG, "demo-scientist"
+        ) as client:
+            progress = client.subscribe(client.keys.progress)
+            results = client.subscribe(client.keys.result)
+            await client.command("control/take", TakeControl(client.name))
+            request = SurveyStart(rows=2, cols=3, downsample=4.0)
+            stations = []
+            for leg in range(3):
+                result = await run_station(client, progress, results, request)
+                stations.append(result)
+                print(f"\nstation {result.station}: mosaic {result.width}x{result.height}")
+                for p in result.points:
+                    print(f"  #{p.rank} pan {p.pan:7.2f} tilt {p.tilt:6.2f} score {p.score:5.2f}")
+                    print(f"       {p.why}")
+                if not result.points:
+                    break
+                ack = await client.command(
+                    "target/choose", ChooseTarget(result.station, result.points[0].rank)
+                )
+                print(f"  chose #1: {ack.detail}")
+                if leg < 2:
+                    request = SurveyStart(rows=1, cols=2, downsample=4.0)
+        code = await daemon.stop()
+    print(f"\ncyborgd stopped with exit status {code} after {time.perf_counter() - t0:.1f} s")
+    print(f"archive: {archive}")
+    for result in stations:
+        folder = archive / result.station
+        manifest = json.loads((folder / "manifest.json").read_text())
+        print(f"  {folder}/  ({manifest['status']}, {manifest['distance_m']:g} m)")
+        print(f"    overlay   {folder / 'analysis/overlay.png'}")
+        print(
+            f"    maps      {folder / 'analysis'}/{{segmentation,uncommon}}_{{h,s,i}}.png, interest.png"
+        )
+        print(f"    mosaic    {folder / 'mosaic.png'}; chips in {folder / 'chips'}/")
+    return code
+
+
+def run_demo(out: Path, time_scale: float = 4.0, seed: int = 3) -> int:
+    try:
+        return asyncio.run(_demo(out, time_scale, seed))
+    except (RigError, RuntimeError) as exc:
+        print(f"cyborg demo: {exc}", file=sys.stderr)
+        return 1

@@ -1,0 +1,85 @@
+"""Start ``cyborgd run`` as a child process and wait until it serves (demo, tests, benchmarks).
+
+The daemon prints one JSON line (``{"ready": true, ...}``) on stdout once its bus, PTU,
+camera and worker are up; anything else it says goes to ``log``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import os
+import signal
+import socket
+import sys
+from collections.abc import AsyncIterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+__all__ = ["Daemon", "free_port", "launch"]
+
+
+def free_port() -> int:
+    """A loopback TCP port that was free a moment ago (prefer port 0 where it can be read back)."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@dataclass
+class Daemon:
+    proc: asyncio.subprocess.Process
+    ready: dict[str, Any]
+    log: Path
+
+    @property
+    def pid(self) -> int:
+        return self.proc.pid
+
+    async def stop(self, timeout: float = 15.0) -> int:
+        """SIGTERM, wait; SIGKILL if it does not go. Returns the exit status."""
+        if self.proc.returncode is None:
+            with contextlib.suppress(ProcessLookupError):
+                self.proc.send_signal(signal.SIGTERM)
+            try:
+                await asyncio.wait_for(self.proc.wait(), timeout)
+            except TimeoutError:
+                self.proc.kill()
+                await self.proc.wait()
+        return self.proc.returncode
+
+
+@contextlib.asynccontextmanager
+async def launch(
+    args: Sequence[str], log: Path, timeout: float = 60.0, env: dict[str, str] | None = None
+) -> AsyncIterator[Daemon]:
+    """``cyborgd run ARGS...``; stopped (SIGTERM, then SIGKILL) when the block ends."""
+    log.parent.mkdir(parents=True, exist_ok=True)
+    with log.open("ab") as err:
+        proc = await asyncio.create_subprocess_exec(
+            sys.executable,
+            "-m",
+            "daemon",
+            "run",
+            *args,
+            stdin=asyncio.subprocess.DEVNULL,
+            stdout=asyncio.subprocess.PIPE,
+            stderr=err,
+            env={**os.environ, **(env or {})},
+        )
+    daemon = Daemon(proc, {}, log)
+    try:
+        try:
+            line = await asyncio.wait_for(proc.stdout.readline(), timeout)
+            daemon.ready = json.loads(line) if line else {}
+        except (TimeoutError, ValueError):
+            daemon.ready = {}
+        if not daemon.ready.get("ready"):
+            await daemon.stop()
+            tail = log.read_text(errors="replace").strip().splitlines()[-5:]
+            raise RuntimeError("cyborgd did not start:\n  " + "\n  ".join(tail))
+        yield daemon
+    finally:
+        await daemon.stop()

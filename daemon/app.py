@@ -1,0 +1,193 @@
+"""``cyborgd run``: the supervisor that owns the PTU, the camera, the worker and the bus.
+
+Lifecycle: open the archive (recovering stations a crash left in progress), the bus,
+the vision worker, the PTU and the camera, each entered on one AsyncExitStack; then
+announce liveliness, tell systemd READY and run the service tasks in one TaskGroup until
+SIGTERM/SIGINT. Shutdown runs in reverse: a running survey is cancelled (its station
+marked incomplete), the head is halted before its port closes, the worker stops, the
+liveliness token disappears with the session. A task that dies of a bug takes the
+group down and the process exits non-zero, so systemd restarts it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import logging
+import os
+import signal
+import sys
+import time
+
+import cv2
+
+from protocol.envelope import MAX_MESSAGE
+from protocol.messages import Event, FrameHeader, Message, PtuState
+
+from .archive import Archive
+from .bus import Bus
+from .camera import CameraError, open_camera
+from .commands import Commands
+from .config import Config
+from .ptu import LinkState, PtuError, open_ptu
+from .rig import Rig
+from .sdnotify import Notifier
+from .survey import Survey, SurveyTelemetry
+from .worker import VisionWorker
+
+__all__ = ["run"]
+
+_LOGGER = logging.getLogger("cyborgd")
+
+
+class _Service:
+    """The long-running tasks, sharing the rig and the bus."""
+
+    def __init__(self, cfg: Config, bus: Bus, rig: Rig) -> None:
+        self.cfg, self.bus, self.rig = cfg, bus, rig
+
+    def event(self, level: str, text: str) -> None:
+        getattr(_LOGGER, "error" if level == "error" else "info")("%s", text)
+        self.bus.publish(self.bus.keys.events, Event(level, text))
+
+    def publish(self, key: str, msg: Message) -> None:
+        self.bus.publish(key, msg)
+
+    def _state(self) -> PtuState:
+        p, ptu = self.rig.pose, self.rig.ptu
+        link = ptu.state.value if isinstance(ptu.state, LinkState) else str(ptu.state)
+        return PtuState(p.pan, p.tilt, p.moving, link, self.rig.control.holder)
+
+    async def state_loop(self) -> None:
+        """Poll the head at ``state_rate`` and publish; also at once on motion changes."""
+        period = 1.0 / self.cfg.state_rate
+        key = self.bus.keys.ptu_state
+        while True:
+            try:
+                self.rig.note(await self.rig.ptu.position())
+            except PtuError as exc:
+                _LOGGER.debug("state poll: %s", exc)
+            self.bus.publish(key, self._state(), latest_wins=True)
+            self.rig.changed.clear()
+            with contextlib.suppress(TimeoutError):
+                async with asyncio.timeout(period):
+                    await self.rig.changed.wait()
+
+    async def frame_loop(self) -> None:
+        """Live frames, latest wins: skip work when nobody watches, never queue frames."""
+        if self.cfg.frames.rate <= 0:
+            return
+        period = 1.0 / self.cfg.frames.rate
+        quality = [cv2.IMWRITE_JPEG_QUALITY, self.cfg.frames.jpeg_quality]
+        next_at = time.monotonic()
+        failures = 0
+        while True:
+            next_at = max(next_at + period, time.monotonic())
+            if self.bus.frame_wanted():
+                try:
+                    frame = await self.rig.grab()
+                    failures = 0
+                except CameraError as exc:
+                    failures += 1
+                    if failures == 1:
+                        self.event("warning", f"camera: {exc}")
+                    await asyncio.sleep(min(5.0, period * failures))
+                    continue
+                ok, jpeg = await asyncio.to_thread(cv2.imencode, ".jpg", frame.image, quality)
+                if ok:
+                    h, w = frame.image.shape[:2]
+                    pose = frame.pose or (None, None)
+                    self.bus.publish_frame(
+                        jpeg.tobytes(), FrameHeader(frame.seq, w, h, pose[0], pose[1])
+                    )
+            await asyncio.sleep(max(0.0, next_at - time.monotonic()))
+
+    async def watchdog_loop(self, notifier: Notifier, interval: float) -> None:
+        while True:
+            notifier.notify("WATCHDOG=1")
+            await asyncio.sleep(interval)
+
+
+async def run(cfg: Config, ready_stream=sys.stdout) -> int:
+    """Serve until SIGTERM/SIGINT; returns the exit status."""
+    loop = asyncio.get_running_loop()
+    stop = asyncio.Event()
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        loop.add_signal_handler(sig, stop.set)
+    notifier = Notifier()
+    cv2.setNumThreads(1)  # the worker does the heavy lifting; leave the cores to it and zenoh
+    archive = Archive(cfg.archive, cfg.rig)
+    recovered = archive.open()
+    async with contextlib.AsyncExitStack() as stack:
+        bus = stack.enter_context(Bus.open(cfg.zenoh, cfg.keys))
+        service: _Service | None = None
+
+        def announce(level: str, text: str) -> None:
+            if service is not None:
+                service.event(level, text)
+
+        worker = VisionWorker(on_restart=lambda text: announce("warning", text))
+        worker.start()
+        stack.callback(worker.close)
+        ptu = open_ptu(cfg.ptu)
+        rig = Rig(ptu, lambda pose: open_camera(cfg.camera.url, pose=pose))
+        camera = rig.camera
+        await stack.enter_async_context(ptu)
+        await stack.enter_async_context(camera)
+        rig.note(await ptu.position())
+        service = _Service(cfg, bus, rig)
+        hfov = camera.hfov or cfg.camera.hfov
+        survey = Survey(
+            rig,
+            worker,
+            archive,
+            cfg.survey,
+            hfov=hfov,
+            telemetry=SurveyTelemetry(
+                progress=lambda m: service.publish(bus.keys.progress, m),
+                result=lambda m: service.publish(bus.keys.result, m),
+                chip=lambda m: service.publish(bus.keys.chip, m),
+                event=service.event,
+            ),
+        )
+        stack.push_async_callback(survey.cancel, "the daemon is stopping")
+        commands = Commands(
+            rig,
+            survey,
+            archive,
+            worker,
+            rig_name=cfg.rig,
+            encode=bus.envelope,
+            announce=service.event,
+            max_reply=MAX_MESSAGE - 4096,
+        )
+        bus.announce()
+        notifier.notify("READY=1")
+        ready = {
+            "ready": True,
+            "rig": cfg.rig,
+            "pid": os.getpid(),
+            "worker_pid": worker.pid,
+            "archive": str(archive.root.resolve()),
+            "recovered": recovered,
+        }
+        print(json.dumps(ready), file=ready_stream, flush=True)
+        for name in recovered:
+            service.event("warning", f"station {name} was interrupted; marked incomplete")
+        async with asyncio.TaskGroup() as tg:
+            tasks = [
+                tg.create_task(bus.serve(commands.handle), name="commands"),
+                tg.create_task(service.state_loop(), name="ptu-state"),
+                tg.create_task(service.frame_loop(), name="frames"),
+            ]
+            if notifier.watchdog_interval:
+                tasks.append(
+                    tg.create_task(service.watchdog_loop(notifier, notifier.watchdog_interval))
+                )
+            await stop.wait()
+            _LOGGER.info("stopping")
+            notifier.notify("STOPPING=1")
+            for task in tasks:
+                task.cancel()
+    return 0

@@ -1,0 +1,233 @@
+"""Command dispatch: bytes from the bus in, an encoded reply out, never an exception.
+
+Every request is decoded strictly (size, version, kind, field types and ranges) before
+anything else happens; a request that fails gets an ``ERROR`` Ack saying why and never
+reaches the hardware. Motion needs control (``control/take``); ``ptu/halt`` always works.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import importlib.metadata
+import logging
+from collections.abc import Awaitable, Callable
+from typing import Any
+
+from protocol.envelope import decode
+from protocol.errors import ProtocolError
+from protocol.messages import (
+    Ack,
+    ArchiveData,
+    ArchiveGet,
+    ArchiveList,
+    ArchiveListing,
+    ChooseTarget,
+    Hello,
+    Message,
+    PtuGoto,
+    PtuHalt,
+    PtuHome,
+    PtuJog,
+    ReleaseControl,
+    Status,
+    SurveyCancel,
+    SurveyStart,
+    SurveyStatus,
+    TakeControl,
+)
+from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
+
+from .archive import Archive, ArchiveError
+from .ptu import PtuConnectionError, PtuError, PtuLimitError, PtuTimeoutError
+from .rig import Rig
+from .survey import Survey, SurveyBusyError
+from .worker import VisionWorker
+
+__all__ = ["REQUESTS", "Commands"]
+
+_LOGGER = logging.getLogger(__name__)
+
+REQUESTS: dict[str, type[Message]] = {
+    "ptu/goto": PtuGoto,
+    "ptu/jog": PtuJog,
+    "ptu/halt": PtuHalt,
+    "ptu/home": PtuHome,
+    "survey/start": SurveyStart,
+    "survey/cancel": SurveyCancel,
+    "survey/status": SurveyStatus,
+    "target/choose": ChooseTarget,
+    "control/take": TakeControl,
+    "control/release": ReleaseControl,
+    "archive/list": ArchiveList,
+    "archive/get": ArchiveGet,
+    "hello": Hello,
+}
+"""The request kind each command expects."""
+
+_BUILD = importlib.metadata.version("cyborg-astrobiologist")
+
+MOTION = frozenset(
+    {"ptu/goto", "ptu/jog", "ptu/home", "survey/start", "survey/cancel", "target/choose"}
+)
+
+
+class Commands:
+    def __init__(
+        self,
+        rig: Rig,
+        survey: Survey,
+        archive: Archive,
+        worker: VisionWorker,
+        *,
+        rig_name: str,
+        encode: Callable[[Message, str | None], bytes],
+        announce: Callable[[str, str], None],
+        max_reply: int,
+    ) -> None:
+        self.rig, self.survey, self.archive, self.worker = rig, survey, archive, worker
+        self.rig_name = rig_name
+        self._encode = encode
+        self._announce = announce
+        self._max_reply = max_reply
+        self._handlers: dict[str, Callable[[Any, str], Awaitable[Message]]] = {
+            "ptu/goto": self._goto,
+            "ptu/jog": self._jog,
+            "ptu/halt": self._halt,
+            "ptu/home": self._home,
+            "survey/start": self._survey_start,
+            "survey/cancel": self._survey_cancel,
+            "survey/status": self._status,
+            "target/choose": self._choose,
+            "control/take": self._take,
+            "control/release": self._release,
+            "archive/list": self._list,
+            "archive/get": self._get,
+            "hello": self._hello,
+        }
+
+    async def handle(self, name: str, payload: bytes) -> bytes:
+        corr = None
+        try:
+            env = decode(payload)
+            corr = env.corr
+            expected = REQUESTS.get(name)
+            if expected is None:
+                raise ProtocolError(f"unknown command {name!r}")
+            if env.kind != expected.KIND:
+                raise ProtocolError(f"cmd/{name} takes {expected.KIND!r}, not {env.kind!r}")
+            msg = expected.from_body(env.body)
+        except ProtocolError as exc:
+            _LOGGER.info("refused a malformed %s request: %s", name, exc)
+            return self._encode(Ack("ERROR", f"{name}: {exc}"), corr)
+        if name in MOTION and not self.rig.control.allows(env.src):
+            holder = self.rig.control.holder or "nobody"
+            reply: Message = Ack(
+                "REJECTED",
+                f"{name}: client {env.src or '(anonymous)'} does not hold control "
+                f"(held by {holder}); send control/take first",
+            )
+        else:
+            reply = await self._run(name, msg, env.src)
+        return self._encode(reply, corr)
+
+    async def _run(self, name: str, msg: Message, src: str) -> Message:
+        try:
+            return await self._handlers[name](msg, src)
+        except PtuLimitError as exc:
+            return Ack("LIMIT", str(exc))
+        except (PtuTimeoutError, TimeoutError) as exc:
+            return Ack("TIMEOUT", f"{name}: {exc or 'the PTU did not answer in time'}")
+        except PtuConnectionError as exc:
+            return Ack("ERROR", f"{name}: PTU link down: {exc}")
+        except SurveyBusyError as exc:
+            return Ack("BUSY", str(exc))
+        except PtuError as exc:
+            return Ack("ERROR", f"{name}: {exc}")
+        except (ArchiveError, ValueError) as exc:
+            return Ack("REJECTED", f"{name}: {exc}")
+        except OSError as exc:
+            return Ack("ERROR", f"{name}: {exc.strerror or exc}")
+
+    # -- motion ------------------------------------------------------------------------
+
+    def _idle(self, name: str) -> None:
+        if self.survey.running:
+            raise SurveyBusyError(f"{name}: a survey is moving the head; cancel it first")
+
+    async def _goto(self, msg: PtuGoto, src: str) -> Message:
+        self._idle("ptu/goto")
+        await self.rig.ptu.move_to(msg.pan, msg.tilt, wait=False)
+        self.rig.mark_moving()
+        return Ack("OK", f"moving to pan {msg.pan:.3f}, tilt {msg.tilt:.3f}")
+
+    async def _jog(self, msg: PtuJog, src: str) -> Message:
+        self._idle("ptu/jog")
+        here = self.rig.pose
+        await self.rig.ptu.move_to(here.pan + msg.pan, here.tilt + msg.tilt, wait=False)
+        self.rig.mark_moving()
+        return Ack("OK", f"jogging by {msg.pan:+.3f}, {msg.tilt:+.3f}")
+
+    async def _home(self, msg: PtuHome, src: str) -> Message:
+        self._idle("ptu/home")
+        await self.rig.ptu.move_to(0.0, 0.0, wait=False)
+        self.rig.mark_moving()
+        return Ack("OK", "moving to pan 0, tilt 0")
+
+    async def _halt(self, msg: PtuHalt, src: str) -> Message:
+        cancelled = await self.survey.cancel(f"halted by {src or 'a client'}")
+        await self.rig.ptu.halt()
+        return Ack("OK", "halted" + ("; the survey was cancelled" if cancelled else ""))
+
+    async def _survey_start(self, msg: SurveyStart, src: str) -> Message:
+        station = self.survey.start(msg, src)
+        return Ack("OK", station)
+
+    async def _survey_cancel(self, msg: SurveyCancel, src: str) -> Message:
+        if not await self.survey.cancel(f"cancelled by {src}"):
+            return Ack("REJECTED", "no survey is running")
+        return Ack("OK", "survey cancelled; the station is marked incomplete")
+
+    async def _choose(self, msg: ChooseTarget, src: str) -> Message:
+        return Ack("OK", await self.survey.choose(msg, src))
+
+    async def _status(self, msg: SurveyStatus, src: str) -> Message:
+        s = self.survey
+        return Status(
+            s.state,
+            s.station_id.split("/")[0],
+            s.station_id,
+            s.distance,
+            self.rig.control.holder,
+            self.worker.pid,
+            s.last_error,
+        )
+
+    # -- control -----------------------------------------------------------------------
+
+    async def _take(self, msg: TakeControl, src: str) -> Message:
+        client = msg.client or src
+        if not client:
+            raise ValueError("name the client taking control")
+        previous = self.rig.control.take(client)
+        if previous:
+            self._announce("warning", f"{client} took control from {previous}")
+        return Ack("OK", f"{client} holds control" + (f" (was {previous})" if previous else ""))
+
+    async def _release(self, msg: ReleaseControl, src: str) -> Message:
+        if not self.rig.control.release(msg.client or src):
+            return Ack("REJECTED", f"{msg.client or src} does not hold control")
+        return Ack("OK", "control released")
+
+    # -- archive and hello -------------------------------------------------------------
+
+    async def _list(self, msg: ArchiveList, src: str) -> Message:
+        if not msg.session:
+            return ArchiveListing("", tuple(self.archive.sessions()))
+        return ArchiveListing(msg.session, tuple(self.archive.products(msg.session)))
+
+    async def _get(self, msg: ArchiveGet, src: str) -> Message:
+        data = await asyncio.to_thread(self.archive.read, msg.session, msg.product, self._max_reply)
+        return ArchiveData(msg.session, msg.product, data)
+
+    async def _hello(self, msg: Hello, src: str) -> Message:
+        return Hello(PROTOCOL_MAJOR, PROTOCOL_MINOR, _BUILD, self.rig_name)

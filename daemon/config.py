@@ -1,0 +1,189 @@
+"""``cyborgd.toml`` -> a typed, validated :class:`Config`; CLI flags override the file.
+
+Every section and key is known: a typo is an error naming the key, not a silently
+ignored setting on a rig in the field.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+from protocol.keys import Keys
+from protocol.transport import Transport
+
+from .vision.params import PROFILES
+
+__all__ = ["CameraConfig", "Config", "ConfigError", "FramesConfig", "SurveyConfig", "load"]
+
+
+class ConfigError(ValueError):
+    """A config file or override that cannot run; the text says which key and why."""
+
+
+@dataclass(frozen=True)
+class CameraConfig:
+    url: str = "v4l2://0"
+    hfov: float = 30.0
+    """Horizontal field of view in degrees at the zoom in use (simulated cameras know theirs)."""
+
+
+@dataclass(frozen=True)
+class FramesConfig:
+    rate: float = 10.0
+    """Live frames per second on the bus; 0 turns the live view off."""
+    jpeg_quality: int = 80
+
+
+@dataclass(frozen=True)
+class SurveyConfig:
+    rows: int = 2
+    cols: int = 3
+    downsample: float = 4.0
+    profile: str = "default"
+    approach: tuple[float, ...] = (300.0, 60.0, 10.0)
+    """Distances (m) of the approach loop's stations: the seed walked 300 -> 60 -> 10 m."""
+    simulate_approach: bool = False
+    """Magnify a simulated camera by the distance ratio at each new station (no walking)."""
+    settle: float = 0.0
+    """Seconds to wait after motion stops before a grab (tripod vibration)."""
+    speed: float | None = None
+    """PTU slew speed (deg/s) during surveys; None keeps the unit's own setting."""
+
+
+@dataclass(frozen=True)
+class Config:
+    rig: str = "rig1"
+    archive: Path = Path("archive")
+    ptu: str = "serial:///dev/ptu"
+    camera: CameraConfig = field(default_factory=CameraConfig)
+    zenoh: Transport = field(default_factory=lambda: Transport(listen=("tcp/127.0.0.1:7447",)))
+    frames: FramesConfig = field(default_factory=FramesConfig)
+    survey: SurveyConfig = field(default_factory=SurveyConfig)
+    state_rate: float = 10.0
+    """PTU state messages per second (plus one on every change of motion)."""
+
+    @property
+    def keys(self) -> Keys:
+        return Keys(self.rig)
+
+
+def _typed(section: str, cls: type, table: Any) -> Any:
+    if not isinstance(table, dict):
+        raise ConfigError(f"[{section}] must be a table")
+    known = {f.name: f for f in fields(cls)}
+    unknown = sorted(set(table) - set(known))
+    if unknown:
+        raise ConfigError(f"unknown key(s) in [{section}]: {', '.join(unknown)}")
+    values: dict[str, Any] = {}
+    for name, value in table.items():
+        values[name] = _coerce(f"{section}.{name}", value, getattr(cls(), name))
+    try:
+        return cls(**values)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"[{section}]: {exc}") from None
+
+
+def _coerce(name: str, value: Any, default: Any) -> Any:
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            raise ConfigError(f"{name}: expected true or false")
+        return value
+    if isinstance(default, float) or (default is None and isinstance(value, int | float)):
+        if not isinstance(value, int | float) or isinstance(value, bool):
+            raise ConfigError(f"{name}: expected a number")
+        return float(value)
+    if isinstance(default, int):
+        if not isinstance(value, int) or isinstance(value, bool):
+            raise ConfigError(f"{name}: expected an integer")
+        return value
+    if isinstance(default, tuple):
+        if not isinstance(value, list):
+            raise ConfigError(f"{name}: expected a list")
+        return tuple(value)
+    if isinstance(default, str) and not isinstance(value, str):
+        raise ConfigError(f"{name}: expected text")
+    return value
+
+
+def _validate(cfg: Config) -> Config:
+    try:
+        cfg.keys  # noqa: B018 - validates the rig name
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+    s = cfg.survey
+    checks = [
+        (0 < cfg.camera.hfov < 180, "camera.hfov must be in (0, 180) degrees"),
+        (0 <= cfg.frames.rate <= 60, "frames.rate must be 0..60 per second"),
+        (1 <= cfg.frames.jpeg_quality <= 100, "frames.jpeg_quality must be 1..100"),
+        (1 <= s.rows <= 16 and 1 <= s.cols <= 32, "survey.rows 1..16 and survey.cols 1..32"),
+        (1 <= s.downsample <= 16, "survey.downsample must be 1..16"),
+        (s.profile in PROFILES, f"survey.profile must be one of {', '.join(sorted(PROFILES))}"),
+        (
+            len(s.approach) >= 1 and all(isinstance(d, int | float) and d > 0 for d in s.approach),
+            "survey.approach must list positive distances",
+        ),
+        (s.settle >= 0, "survey.settle must be >= 0"),
+        (s.speed is None or s.speed > 0, "survey.speed must be > 0"),
+        (0 < cfg.state_rate <= 50, "state_rate must be in (0, 50]"),
+    ]
+    for ok, text in checks:
+        if not ok:
+            raise ConfigError(text)
+    return cfg
+
+
+def load(path: Path | None = None, **overrides: Any) -> Config:
+    """Read ``path`` (if any), apply non-None ``overrides`` (top-level fields), validate.
+
+    >>> load(rig="bench", ptu="emu://").ptu
+    'emu://'
+    """
+    data: dict[str, Any] = {}
+    if path is not None:
+        try:
+            data = tomllib.loads(Path(path).read_text())
+        except OSError as exc:
+            raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    sections = {"camera": CameraConfig, "frames": FramesConfig, "survey": SurveyConfig}
+    top = {f.name for f in fields(Config)}
+    unknown = sorted(set(data) - top)
+    if unknown:
+        raise ConfigError(f"unknown key(s) in {path}: {', '.join(unknown)}")
+    values: dict[str, Any] = {}
+    for name, value in data.items():
+        if name in sections:
+            values[name] = _typed(name, sections[name], value)
+        elif name == "zenoh":
+            values[name] = _transport(value)
+        elif name == "archive":
+            values[name] = Path(_coerce(name, value, ""))
+        else:
+            values[name] = _coerce(name, value, getattr(Config(), name))
+    cfg = Config(**values)
+    cfg = replace(cfg, **{k: v for k, v in overrides.items() if v is not None})
+    return _validate(cfg)
+
+
+def _transport(table: Any) -> Transport:
+    if not isinstance(table, dict):
+        raise ConfigError("[zenoh] must be a table")
+    known = {f.name for f in fields(Transport)}
+    unknown = sorted(set(table) - known)
+    if unknown:
+        raise ConfigError(f"unknown key(s) in [zenoh]: {', '.join(unknown)}")
+    values = dict(table)
+    for name in ("listen", "connect"):
+        if name in values:
+            eps = values[name]
+            if not isinstance(eps, list) or not all(isinstance(e, str) for e in eps):
+                raise ConfigError(f"zenoh.{name}: expected a list of endpoints")
+            values[name] = tuple(eps)
+    try:
+        return Transport(**values)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"[zenoh]: {exc}") from None

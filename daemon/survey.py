@@ -1,0 +1,403 @@
+"""The survey state machine: plan, acquire, analyse, chips, choose, next station.
+
+One station: shoot an M×N mosaic of butted frames in serpentine order, reducing and
+placing each tile while the head already moves to the next; hand the mosaic to the
+vision worker; re-point at the top three interest points for full-resolution chips;
+publish the result and wait for the operator's choice. Choosing a target aims the next
+station at it, one step closer along the approach (the seed's 300 m -> 60 m -> 10 m).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+
+from protocol.messages import (
+    Chip,
+    ChooseTarget,
+    InterestPoint,
+    InterestResult,
+    SurveyProgress,
+    SurveyStart,
+)
+
+from .analyze import analyse_into
+from .archive import Archive, Station
+from .camera import Frame
+from .config import SurveyConfig
+from .ptu import PtuError, PtuLimitError
+from .ptu.geometry import CameraModel, MosaicGeometry
+from .rig import Rig
+from .worker import VisionWorker, WorkerError
+
+__all__ = ["Survey", "SurveyBusyError", "SurveyTelemetry"]
+
+_LOGGER = logging.getLogger(__name__)
+CHIPS = 3
+
+
+class SurveyBusyError(RuntimeError):
+    """A survey is already running."""
+
+
+@dataclass
+class SurveyTelemetry:
+    """Where the survey reports; the app wires these to the bus."""
+
+    progress: Callable[[SurveyProgress], None]
+    result: Callable[[InterestResult], None]
+    chip: Callable[[Chip], None]
+    event: Callable[[str, str], None]
+
+
+@dataclass
+class _Approach:
+    """Where the approach loop stands between stations."""
+
+    session: str = ""
+    index: int = 0
+    leg: int = 0
+    aim: tuple[float, float] | None = None
+    aimed_from: str = ""
+
+
+class Survey:
+    def __init__(
+        self,
+        rig: Rig,
+        worker: VisionWorker,
+        archive: Archive,
+        config: SurveyConfig,
+        *,
+        hfov: float,
+        telemetry: SurveyTelemetry,
+    ) -> None:
+        self.rig, self.worker, self.archive, self.cfg = rig, worker, archive, config
+        self.hfov = hfov
+        self.tel = telemetry
+        self.state = "idle"
+        self.station: Station | None = None
+        self.last_error = ""
+        self._task: asyncio.Task[None] | None = None
+        self._approach = _Approach()
+        self._result: InterestResult | None = None
+
+    # -- commands ----------------------------------------------------------------------
+
+    @property
+    def running(self) -> bool:
+        return self._task is not None and not self._task.done()
+
+    @property
+    def distance(self) -> float:
+        return self.cfg.approach[self._approach.leg]
+
+    def start(self, req: SurveyStart, requested_by: str) -> str:
+        """Plan and launch a station; returns its id. Raises before touching anything if
+        the plan leaves the unit's limits or a survey runs."""
+        if self.running:
+            raise SurveyBusyError(f"station {self.station_id} is still running")
+        geometry = self.plan(req)
+        ap = self._approach
+        if not ap.session:
+            ap.session, ap.index = self.archive.new_session(), 0
+        ap.index += 1
+        plan = {
+            "rows": req.rows,
+            "cols": req.cols,
+            "downsample": req.downsample,
+            "profile": req.profile,
+            "pan0": geometry.pan0,
+            "tilt0": geometry.tilt0,
+            "camera": {
+                "width": geometry.camera.width,
+                "height": geometry.camera.height,
+                "hfov": geometry.camera.hfov,
+            },
+            "mosaic": {"width": geometry.size[0], "height": geometry.size[1]},
+            "order": geometry.serpentine(),
+        }
+        self.station = self.archive.new_station(
+            ap.session,
+            ap.index,
+            self.distance,
+            plan=plan,
+            requested_by=requested_by,
+            aim={"pan": ap.aim[0], "tilt": ap.aim[1], "from": ap.aimed_from} if ap.aim else None,
+            tiles=[],
+            chips=[],
+            points=[],
+            choice=None,
+            timing={},
+        )
+        self.state, self.last_error, self._result = "surveying", "", None
+        self._task = asyncio.create_task(self._run(geometry, req.profile), name="survey")
+        return self.station_id
+
+    @property
+    def station_id(self) -> str:
+        return f"{self._approach.session}/{self.station.name}" if self.station else ""
+
+    def plan(self, req: SurveyStart) -> MosaicGeometry:
+        if req.profile not in ("paper", "default"):
+            raise ValueError(f"unknown profile {req.profile!r}")
+        ap = self._approach
+        here = self.rig.pose
+        pan0 = req.pan0 if req.pan0 is not None else (ap.aim[0] if ap.aim else here.pan)
+        tilt0 = req.tilt0 if req.tilt0 is not None else (ap.aim[1] if ap.aim else here.tilt)
+        width, height = self.rig.camera.resolution
+        camera = CameraModel(width, height, self.hfov).zoomed(self._magnification())
+        geometry = MosaicGeometry(camera, req.rows, req.cols, pan0, tilt0, req.downsample)
+        info = self.rig.ptu.info
+        for r, c in geometry.serpentine():
+            pan, tilt = geometry.tile_pose(r, c)
+            if info.limits_enabled and not (
+                info.pan.min_deg <= pan <= info.pan.max_deg
+                and info.tilt.min_deg <= tilt <= info.tilt.max_deg
+            ):
+                raise PtuLimitError(
+                    "plan",
+                    f"tile ({r}, {c}) at pan {pan:.1f}, tilt {tilt:.1f} deg is outside the "
+                    f"unit's limits (pan {info.pan.min_deg:.1f}..{info.pan.max_deg:.1f}, "
+                    f"tilt {info.tilt.min_deg:.1f}..{info.tilt.max_deg:.1f})",
+                )
+        return geometry
+
+    def _magnification(self) -> float:
+        if not self.cfg.simulate_approach:
+            return 1.0
+        return self.cfg.approach[0] / self.distance
+
+    async def cancel(self, reason: str) -> bool:
+        task = self._task
+        if task is None or task.done():
+            return False
+        task.cancel(reason)
+        with contextlib.suppress(asyncio.CancelledError):
+            await task
+        return True
+
+    async def choose(self, msg: ChooseTarget, by: str) -> str:
+        """Record the operator's choice; aim the next station at it, one leg closer."""
+        result = self._result
+        if self.state != "awaiting-choice" or result is None or self.station is None:
+            raise ValueError("no station is waiting for a choice")
+        if msg.station != result.station:
+            raise ValueError(f"station {msg.station!r} is not the one waiting ({result.station})")
+        ap = self._approach
+        if msg.rank == 0:
+            self.station.update(choice={"rank": 0, "by": by, "t": time.time()})
+            ap.aim, ap.aimed_from = None, ""
+            self.state = "idle"
+            return f"no target chosen at {result.station}; next station at {self.distance:g} m"
+        point = next((p for p in result.points if p.rank == msg.rank), None)
+        if point is None:
+            raise ValueError(f"station {result.station} has no point of rank {msg.rank}")
+        self.station.update(
+            choice={
+                "rank": point.rank,
+                "pan": point.pan,
+                "tilt": point.tilt,
+                "by": by,
+                "t": time.time(),
+            }
+        )
+        self.state = "idle"
+        if ap.leg + 1 >= len(self.cfg.approach):
+            self._approach = _Approach()
+            await self.rig.move_to(point.pan, point.tilt)
+            return f"target {point.rank} chosen at the last station; next survey: new session"
+        ap.leg += 1
+        ap.aim, ap.aimed_from = (point.pan, point.tilt), f"{result.station}#{point.rank}"
+        if self.cfg.simulate_approach:
+            await self.rig.camera.zoom(self._magnification())
+        await self.rig.move_to(point.pan, point.tilt)
+        return (
+            f"target {point.rank} chosen; next station at {self.distance:g} m aimed at "
+            f"pan {point.pan:.2f}, tilt {point.tilt:.2f}"
+        )
+
+    # -- the station -------------------------------------------------------------------
+
+    def _progress(
+        self, stage: str, done: int = 0, total: int = 0, eta: float | None = None
+    ) -> None:
+        self.tel.progress(SurveyProgress(self.station_id, stage, done, total, eta))
+
+    async def _run(self, geometry: MosaicGeometry, profile: str) -> None:
+        station = self.station
+        assert station is not None
+        t0 = time.perf_counter()
+        timing: dict[str, float] = {"predicted_motion_s": 0.0, "grab_s": 0.0}
+        try:
+            mosaic = await self._acquire(station, geometry, timing)
+            self._progress("analysis", 0, 1)
+            ta = time.perf_counter()
+            doc = await self.worker.call(
+                analyse_into, str(station.partial_dir), mosaic, profile, "mosaic.png"
+            )
+            timing["analysis_s"] = time.perf_counter() - ta
+            station.publish_analysis()
+            points = self._points(doc, geometry)
+            station.update(points=[p.to_body() for p in points], products=doc["products"])
+            await self._chips(station, points, timing)
+            timing["wall_s"] = time.perf_counter() - t0
+            station.update(timing=timing)
+            station.finish("complete")
+            self._result = InterestResult(self.station_id, tuple(points), *geometry.size)
+            self.state = "awaiting-choice"
+            self._progress("done", 1, 1, 0.0)
+            self.tel.result(self._result)
+            self.tel.event(
+                "info", f"station {self.station_id} complete: {len(points)} interest points"
+            )
+        except asyncio.CancelledError as exc:
+            reason = str(exc.args[0]) if exc.args else "cancelled"
+            await self._abandon(station, "incomplete", reason, timing, t0)
+            raise
+        except (PtuError, WorkerError, OSError, ValueError, TimeoutError) as exc:
+            text = _describe(exc)
+            await self._abandon(station, "failed", text, timing, t0)
+            self.tel.event("error", f"station {self.station_id} failed: {text}")
+
+    async def _abandon(
+        self, station: Station, status: str, reason: str, timing: dict[str, float], t0: float
+    ) -> None:
+        self.state, self.last_error = "idle", reason if status == "failed" else ""
+        with contextlib.suppress(PtuError, OSError, TimeoutError):
+            await asyncio.shield(self.rig.ptu.halt())
+        timing["wall_s"] = time.perf_counter() - t0
+        try:
+            station.update(timing=timing)
+            station.finish(status, reason)
+        except OSError as exc:
+            _LOGGER.error("station %s: cannot update the manifest: %s", station.name, exc)
+        self._progress(status, 0, 0, None)
+
+    async def _acquire(
+        self, station: Station, geometry: MosaicGeometry, timing: dict[str, float]
+    ) -> np.ndarray:
+        width, height = geometry.size
+        tw, th = geometry.tile_size
+        mosaic = np.zeros((height, width, 3), np.uint8)
+        order = geometry.serpentine()
+        ptu = self.rig.ptu
+        pending: tuple[int, int, Frame, tuple[float, float]] | None = None
+        overhead: list[float] = []
+        for k, (row, col) in enumerate(order):
+            pan, tilt = geometry.tile_pose(row, col)
+            tk = time.perf_counter()
+            predicted = ptu.predict_move_time(pan, tilt)
+            timing["predicted_motion_s"] += predicted
+            await ptu.move_to(pan, tilt, wait=False)
+            self.rig.mark_moving()
+            if pending is not None:  # reduce, place and archive the last tile while moving
+                await asyncio.to_thread(self._place, station, mosaic, (tw, th), pending)
+            position = await self.rig.settle()
+            if self.cfg.settle:
+                await asyncio.sleep(self.cfg.settle)
+            tg = time.perf_counter()
+            frame = await self.rig.grab()
+            timing["grab_s"] += time.perf_counter() - tg
+            pending = (row, col, frame, (position.pan, position.tilt))
+            overhead.append(time.perf_counter() - tk - predicted)
+            left = order[k + 1 :]
+            eta = sum(ptu.predict_move_time(*geometry.tile_pose(r, c)) for r, c in left[:1]) + len(
+                left
+            ) * (sum(overhead) / len(overhead) + 0.5 * predicted)
+            self._progress("tiles", k + 1, len(order), round(eta, 2))
+        if pending is not None:
+            await asyncio.to_thread(self._place, station, mosaic, (tw, th), pending)
+        await asyncio.to_thread(station.write_png, "mosaic.png", mosaic)
+        return mosaic
+
+    @staticmethod
+    def _place(
+        station: Station,
+        mosaic: np.ndarray,
+        tile: tuple[int, int],
+        pending: tuple[int, int, Frame, tuple[float, float]],
+    ) -> None:
+        row, col, frame, (pan, tilt) = pending
+        tw, th = tile
+        image = frame.image
+        small = cv2.resize(image, (tw, th), interpolation=cv2.INTER_AREA)
+        mosaic[row * th : (row + 1) * th, col * tw : (col + 1) * tw] = small
+        rel = f"tiles/r{row}c{col}.png"
+        station.write_png(rel, image)
+        station.manifest["tiles"].append(
+            {"file": rel, "row": row, "col": col, "pan": pan, "tilt": tilt, "t": frame.timestamp}
+        )
+        station.save()
+
+    def _points(self, doc: dict[str, Any], geometry: MosaicGeometry) -> list[InterestPoint]:
+        points = []
+        for p in doc["points"]:
+            # result.json: pixel k's centre is at k; the geometry puts it at k + 0.5.
+            pan, tilt = geometry.to_angles(p["x"] + 0.5, p["y"] + 0.5)
+            points.append(
+                InterestPoint(
+                    p["rank"],
+                    p["x"],
+                    p["y"],
+                    p["score"],
+                    round(pan, 4),
+                    round(tilt, 4),
+                    p["summary"],
+                )
+            )
+        return points
+
+    async def _chips(
+        self, station: Station, points: list[InterestPoint], timing: dict[str, float]
+    ) -> None:
+        ptu = self.rig.ptu
+        for k, point in enumerate(points[:CHIPS], start=1):
+            self._progress("chips", k - 1, min(CHIPS, len(points)))
+            timing["predicted_motion_s"] += ptu.predict_move_time(point.pan, point.tilt)
+            position = await self.rig.move_to(point.pan, point.tilt)
+            if self.cfg.settle:
+                await asyncio.sleep(self.cfg.settle)
+            tg = time.perf_counter()
+            frame = await self.rig.grab()
+            timing["grab_s"] += time.perf_counter() - tg
+            rel = f"chips/chip{point.rank}.png"
+            await asyncio.to_thread(station.write_png, rel, frame.image)
+            station.manifest["chips"].append(
+                {
+                    "file": rel,
+                    "rank": point.rank,
+                    "pan": position.pan,
+                    "tilt": position.tilt,
+                    "t": frame.timestamp,
+                }
+            )
+            station.save()
+            ok, jpeg = cv2.imencode(".jpg", frame.image, [cv2.IMWRITE_JPEG_QUALITY, 85])
+            self.tel.chip(
+                Chip(
+                    self.station_id,
+                    point.rank,
+                    position.pan,
+                    position.tilt,
+                    rel,
+                    jpeg.tobytes() if ok else b"",
+                )
+            )
+        self._progress("chips", min(CHIPS, len(points)), min(CHIPS, len(points)))
+
+
+def _describe(exc: BaseException) -> str:
+    if isinstance(exc, OSError) and exc.filename:
+        return f"archive: cannot write {exc.filename}: {exc.strerror or exc}"
+    if isinstance(exc, TimeoutError):
+        return "the PTU did not reach its target in time"
+    return str(exc) or type(exc).__name__

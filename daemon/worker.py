@@ -1,0 +1,143 @@
+"""The vision worker: the science core in its own process, restarted when it dies.
+
+A separate process keeps the event loop (PTU, bus, live frames) responsive while a
+mosaic is analysed, and a crash in native image code cannot take the daemon with it.
+It is started with the ``spawn`` method: forking a process that has a zenoh session
+open hangs the child (see the stack notes).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import multiprocessing as mp
+import signal
+import traceback
+from collections.abc import Callable
+from multiprocessing.connection import Connection, wait
+from typing import Any
+
+__all__ = ["VisionWorker", "WorkerCrashedError", "WorkerError"]
+
+_LOGGER = logging.getLogger(__name__)
+
+
+class WorkerError(RuntimeError):
+    """The job raised inside the worker; the text is the worker's one-line reason."""
+
+
+class WorkerCrashedError(WorkerError):
+    """The worker process died during the job (killed, out of memory, native crash)."""
+
+
+def _serve(conn: Connection) -> None:
+    """Worker main loop: run ``(fn, args)`` jobs until the pipe closes.
+
+    The daemon owns the worker's lifetime: a Ctrl-C or a SIGTERM sent to the whole process
+    group (a terminal, ``timeout``, systemd's control-group kill) must not kill it
+    mid-job; it exits when the daemon closes the pipe.
+    """
+    import cv2  # noqa: PLC0415 - only the worker needs OpenCV's threads
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    cv2.setNumThreads(1)
+    while True:
+        try:
+            fn, args = conn.recv()
+        except (EOFError, OSError):
+            return
+        try:
+            reply = ("ok", fn(*args))
+        except Exception as exc:  # reported to the daemon, which decides
+            reply = ("error", f"{type(exc).__name__}: {exc}", traceback.format_exc())
+        conn.send(reply)
+
+
+class VisionWorker:
+    """One worker process; :meth:`call` runs a picklable function in it."""
+
+    def __init__(self, on_restart: Callable[[str], None] | None = None) -> None:
+        self._ctx = mp.get_context("spawn")
+        self._proc: Any = None
+        self._conn: Connection | None = None
+        self._lock = asyncio.Lock()
+        self._closing = False
+        self.restarts = 0
+        self.on_restart = on_restart
+
+    @property
+    def pid(self) -> int:
+        return self._proc.pid if self._proc is not None and self._proc.is_alive() else 0
+
+    def start(self) -> None:
+        parent, child = self._ctx.Pipe()
+        proc = self._ctx.Process(target=_serve, args=(child,), name="cyborgd-vision", daemon=True)
+        proc.start()
+        child.close()
+        self._proc, self._conn = proc, parent
+        asyncio.get_running_loop().add_reader(proc.sentinel, self._on_exit, proc)
+        _LOGGER.info("vision worker started, pid %d", proc.pid)
+
+    def _on_exit(self, proc: Any) -> None:
+        asyncio.get_running_loop().remove_reader(proc.sentinel)
+        proc.join(0)
+        if self._closing or proc is not self._proc:
+            return
+        self.restarts += 1
+        text = f"vision worker pid {proc.pid} died (exit code {proc.exitcode})"
+        if self._conn is not None:
+            self._conn.close()
+        self.start()
+        text += f"; restarted as pid {self._proc.pid}"
+        _LOGGER.warning("%s", text)
+        if self.on_restart is not None:
+            self.on_restart(text)
+
+    async def call(self, fn: Callable[..., Any], *args: Any) -> Any:
+        """Run ``fn(*args)`` in the worker; one job at a time.
+
+        Raises WorkerCrashedError if the process dies meanwhile, WorkerError if ``fn`` raised.
+        """
+        async with self._lock:
+            proc, conn = self._proc, self._conn
+            if proc is None or conn is None:
+                raise WorkerCrashedError("vision worker is not running")
+            return await asyncio.to_thread(self._roundtrip, proc, conn, fn, args)
+
+    @staticmethod
+    def _roundtrip(proc: Any, conn: Connection, fn: Callable[..., Any], args: tuple) -> Any:
+        try:
+            conn.send((fn, args))
+            while True:
+                ready = wait([conn, proc.sentinel])
+                if conn in ready:
+                    reply = conn.recv()
+                    break
+                if proc.sentinel in ready:
+                    raise EOFError
+        except (EOFError, OSError, BrokenPipeError):
+            raise WorkerCrashedError(
+                f"vision worker pid {proc.pid} died during the job (exit code {proc.exitcode})"
+            ) from None
+        if reply[0] == "ok":
+            return reply[1]
+        _LOGGER.debug("worker traceback:\n%s", reply[2])
+        raise WorkerError(reply[1])
+
+    def close(self, timeout: float = 5.0) -> None:
+        """Close the pipe (the worker exits at its next read), then make sure it is gone."""
+        self._closing = True
+        proc = self._proc
+        if proc is None:
+            return
+        with contextlib.suppress(Exception):
+            asyncio.get_running_loop().remove_reader(proc.sentinel)
+        if self._conn is not None:
+            self._conn.close()
+        proc.join(timeout)
+        if proc.is_alive():
+            proc.terminate()
+            proc.join(timeout)
+        self._proc = self._conn = None
