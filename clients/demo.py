@@ -119,10 +119,9 @@ async def _demo(out: Path, time_scale: float, seed: int) -> int:
         folder = archive / result.station
         manifest = json.loads((folder / "manifest.json").read_text())
         print(f"  {folder}/  ({manifest['status']}, {manifest['distance_m']:g} m)")
-        print(f"    overlay   {folder / 'analysis/overlay.png'}")
-        print(
-            f"    maps      {folder / 'analysis'}/{{segmentation,uncommon}}_{{h,s,i}}.png, interest.png"
-        )
+        maps = folder / "analysis"
+        print(f"    overlay   {maps / 'overlay.png'}")
+        print(f"    maps      {maps}/{{segmentation,uncommon}}_{{h,s,i}}.png, interest.png")
         print(f"    mosaic    {folder / 'mosaic.png'}; chips in {folder / 'chips'}/")
     return code
 
