@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-__all__ = ["Daemon", "free_port", "launch"]
+__all__ = ["Daemon", "free_port", "launch", "spawn"]
 
 
 def free_port() -> int:
@@ -51,11 +51,10 @@ class Daemon:
         return self.proc.returncode
 
 
-@contextlib.asynccontextmanager
-async def launch(
+async def spawn(
     args: Sequence[str], log: Path, timeout: float = 60.0, env: dict[str, str] | None = None
-) -> AsyncIterator[Daemon]:
-    """``cyborgd run ARGS...``; stopped (SIGTERM, then SIGKILL) when the block ends."""
+) -> Daemon:
+    """``cyborgd run ARGS...``, returned once it printed its ready line; the caller stops it."""
     log.parent.mkdir(parents=True, exist_ok=True)
     with log.open("ab") as err:
         proc = await asyncio.create_subprocess_exec(
@@ -71,15 +70,24 @@ async def launch(
         )
     daemon = Daemon(proc, {}, log)
     try:
-        try:
-            line = await asyncio.wait_for(proc.stdout.readline(), timeout)
-            daemon.ready = json.loads(line) if line else {}
-        except (TimeoutError, ValueError):
-            daemon.ready = {}
-        if not daemon.ready.get("ready"):
-            await daemon.stop()
-            tail = log.read_text(errors="replace").strip().splitlines()[-5:]
-            raise RuntimeError("cyborgd did not start:\n  " + "\n  ".join(tail))
+        line = await asyncio.wait_for(proc.stdout.readline(), timeout)
+        daemon.ready = json.loads(line) if line else {}
+    except (TimeoutError, ValueError):
+        daemon.ready = {}
+    if not daemon.ready.get("ready"):
+        await daemon.stop()
+        tail = log.read_text(errors="replace").strip().splitlines()[-5:]
+        raise RuntimeError("cyborgd did not start:\n  " + "\n  ".join(tail))
+    return daemon
+
+
+@contextlib.asynccontextmanager
+async def launch(
+    args: Sequence[str], log: Path, timeout: float = 60.0, env: dict[str, str] | None = None
+) -> AsyncIterator[Daemon]:
+    """:func:`spawn`, stopped (SIGTERM, then SIGKILL) when the block ends."""
+    daemon = await spawn(args, log, timeout, env)
+    try:
         yield daemon
     finally:
         await daemon.stop()

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import logging
 import time
 from collections.abc import Callable
@@ -31,7 +32,7 @@ from protocol.messages import (
 
 from .analyze import analyse_into
 from .archive import Archive, Station
-from .camera import Frame
+from .camera import CameraError, Frame
 from .config import SurveyConfig
 from .ptu import PtuError, PtuLimitError
 from .ptu.geometry import CameraModel, MosaicGeometry
@@ -89,6 +90,7 @@ class Survey:
         self._task: asyncio.Task[None] | None = None
         self._approach = _Approach()
         self._result: InterestResult | None = None
+        self._analysis_estimate = 1.0
 
     # -- commands ----------------------------------------------------------------------
 
@@ -244,7 +246,7 @@ class Survey:
             doc = await self.worker.call(
                 analyse_into, str(station.partial_dir), mosaic, profile, "mosaic.png"
             )
-            timing["analysis_s"] = time.perf_counter() - ta
+            timing["analysis_s"] = self._analysis_estimate = time.perf_counter() - ta
             station.publish_analysis()
             points = self._points(doc, geometry)
             station.update(points=[p.to_body() for p in points], products=doc["products"])
@@ -263,10 +265,14 @@ class Survey:
             reason = str(exc.args[0]) if exc.args else "cancelled"
             await self._abandon(station, "incomplete", reason, timing, t0)
             raise
-        except (PtuError, WorkerError, OSError, ValueError, TimeoutError) as exc:
+        except (PtuError, CameraError, WorkerError, OSError, ValueError, TimeoutError) as exc:
             text = _describe(exc)
             await self._abandon(station, "failed", text, timing, t0)
             self.tel.event("error", f"station {self.station_id} failed: {text}")
+        except Exception as exc:  # a bug: fail the station, keep the daemon
+            _LOGGER.exception("station %s", self.station_id)
+            await self._abandon(station, "failed", f"internal error: {exc!r}", timing, t0)
+            self.tel.event("error", f"station {self.station_id} failed: internal error {exc!r}")
 
     async def _abandon(
         self, station: Station, status: str, reason: str, timing: dict[str, float], t0: float
@@ -290,32 +296,34 @@ class Survey:
         mosaic = np.zeros((height, width, 3), np.uint8)
         order = geometry.serpentine()
         ptu = self.rig.ptu
+        place = functools.partial(self._place, station, mosaic, (tw, th))
         pending: tuple[int, int, Frame, tuple[float, float]] | None = None
-        overhead: list[float] = []
-        for k, (row, col) in enumerate(order):
-            pan, tilt = geometry.tile_pose(row, col)
-            tk = time.perf_counter()
-            predicted = ptu.predict_move_time(pan, tilt)
-            timing["predicted_motion_s"] += predicted
-            await ptu.move_to(pan, tilt, wait=False)
-            self.rig.mark_moving()
-            if pending is not None:  # reduce, place and archive the last tile while moving
-                await asyncio.to_thread(self._place, station, mosaic, (tw, th), pending)
-            position = await self.rig.settle()
-            if self.cfg.settle:
-                await asyncio.sleep(self.cfg.settle)
-            tg = time.perf_counter()
-            frame = await self.rig.grab()
-            timing["grab_s"] += time.perf_counter() - tg
-            pending = (row, col, frame, (position.pan, position.tilt))
-            overhead.append(time.perf_counter() - tk - predicted)
-            left = order[k + 1 :]
-            eta = sum(ptu.predict_move_time(*geometry.tile_pose(r, c)) for r, c in left[:1]) + len(
-                left
-            ) * (sum(overhead) / len(overhead) + 0.5 * predicted)
-            self._progress("tiles", k + 1, len(order), round(eta, 2))
+        t0 = time.perf_counter()
+        try:
+            for k, (row, col) in enumerate(order):
+                pan, tilt = geometry.tile_pose(row, col)
+                timing["predicted_motion_s"] += ptu.predict_move_time(pan, tilt)
+                await ptu.move_to(pan, tilt, wait=False)
+                self.rig.mark_moving()
+                if pending is not None:  # reduce, place and archive the last tile while moving
+                    job, pending = pending, None
+                    await asyncio.to_thread(place, job)
+                position = await self.rig.settle()
+                if self.cfg.settle:
+                    await asyncio.sleep(self.cfg.settle)
+                tg = time.perf_counter()
+                frame = await self.rig.grab()
+                timing["grab_s"] += time.perf_counter() - tg
+                pending = (row, col, frame, (position.pan, position.tilt))
+                per_tile = (time.perf_counter() - t0) / (k + 1)
+                eta = per_tile * (len(order) - k - 1 + CHIPS) + self._analysis_estimate
+                self._progress("tiles", k + 1, len(order), round(eta, 1))
+        except asyncio.CancelledError:
+            if pending is not None:  # a frame already taken is kept
+                place(pending)
+            raise
         if pending is not None:
-            await asyncio.to_thread(self._place, station, mosaic, (tw, th), pending)
+            await asyncio.to_thread(place, pending)
         await asyncio.to_thread(station.write_png, "mosaic.png", mosaic)
         return mosaic
 

@@ -87,8 +87,8 @@ class VisionWorker:
             return
         self.restarts += 1
         text = f"vision worker pid {proc.pid} died (exit code {proc.exitcode})"
-        if self._conn is not None:
-            self._conn.close()
+        if self._conn is not None and not self._lock.locked():
+            self._conn.close()  # else the job in flight finds the death and closes it
         self.start()
         text += f"; restarted as pid {self._proc.pid}"
         _LOGGER.warning("%s", text)
@@ -104,7 +104,11 @@ class VisionWorker:
             proc, conn = self._proc, self._conn
             if proc is None or conn is None:
                 raise WorkerCrashedError("vision worker is not running")
-            return await asyncio.to_thread(self._roundtrip, proc, conn, fn, args)
+            try:
+                return await asyncio.to_thread(self._roundtrip, proc, conn, fn, args)
+            except WorkerCrashedError:
+                conn.close()
+                raise
 
     @staticmethod
     def _roundtrip(proc: Any, conn: Connection, fn: Callable[..., Any], args: tuple) -> Any:

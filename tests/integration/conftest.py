@@ -1,0 +1,88 @@
+"""Real processes on loopback: an in-process zenoh router on port 0, ``cyborgd`` as a child
+process with the PTU emulator on a pty and the simulated camera, clients in client mode."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import AsyncIterator, Iterator
+from pathlib import Path
+
+import pytest
+import zenoh
+
+from clients.launch import Daemon, spawn
+from clients.rigclient import RigClient
+from protocol.transport import Transport
+
+
+@pytest.fixture
+def router() -> Iterator[str]:
+    """A router listening on a port the kernel picked; yields its endpoint."""
+    cfg = zenoh.Config()
+    for key, value in Transport(mode="router", listen=("tcp/127.0.0.1:0",)).json5_items():
+        cfg.insert_json5(key, value)
+    cfg.insert_json5("adminspace/enabled", "true")
+    session = zenoh.open(cfg)
+    try:
+        info = next(iter(session.get(f"@/{session.zid()}/router", timeout=5.0)))
+        locator = json.loads(info.ok.payload.to_string())["locators"][0]
+        yield locator
+    finally:
+        session.close()
+
+
+def config_text(endpoint: str, archive: Path, ptu_query: str = "", **survey: object) -> str:
+    extra = "".join(f"{k} = {json.dumps(v)}\n" for k, v in survey.items())
+    return f"""\
+rig = "itest"
+archive = "{archive}"
+ptu = "pty://?model=D46-17&time_scale=8{ptu_query}"
+
+[camera]
+url = "sim://outcrop?seed=3&hfov=30"
+
+[zenoh]
+mode = "peer"
+connect = ["{endpoint}"]
+
+[frames]
+rate = 10
+
+[survey]
+approach = [300, 60, 10]
+simulate_approach = true
+{extra}"""
+
+
+@pytest.fixture
+async def start_daemon(router: str, tmp_path: Path) -> AsyncIterator:
+    """Factory: start cyborgd with optional [survey] settings; all stopped at teardown."""
+    daemons: list[Daemon] = []
+
+    async def start(ptu_query: str = "", **survey: object) -> Daemon:
+        config = tmp_path / f"cyborgd{len(daemons)}.toml"
+        config.write_text(config_text(router, tmp_path / "archive", ptu_query, **survey))
+        daemon = await spawn(["--config", str(config)], tmp_path / "cyborgd.log")
+        daemons.append(daemon)
+        return daemon
+
+    yield start
+    for daemon in daemons:
+        await daemon.stop()
+
+
+@pytest.fixture
+async def daemon(start_daemon) -> Daemon:
+    return await start_daemon()
+
+
+@pytest.fixture
+def client(router: str) -> Iterator[RigClient]:
+    with RigClient.open(Transport("client", connect=(router,)), "itest", "tester") as c:
+        yield c
+
+
+@pytest.fixture
+def other_client(router: str) -> Iterator[RigClient]:
+    with RigClient.open(Transport("client", connect=(router,)), "itest", "intruder") as c:
+        yield c

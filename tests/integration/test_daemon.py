@@ -1,0 +1,272 @@
+"""cyborgd as a real process: surveys over zenoh, hostile input, control, shutdown, crashes."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import signal
+from pathlib import Path
+
+import cv2
+import msgpack
+import numpy as np
+import pytest
+
+from clients.demo import run_station
+from clients.rigclient import RigClient, RigError
+from daemon.camera.simulated import outcrop_panorama
+from protocol.envelope import encode
+from protocol.messages import (
+    Ack,
+    ArchiveData,
+    ArchiveGet,
+    ArchiveList,
+    ArchiveListing,
+    ChooseTarget,
+    Event,
+    Hello,
+    PtuGoto,
+    PtuHalt,
+    PtuState,
+    ReleaseControl,
+    Status,
+    SurveyProgress,
+    SurveyStart,
+    SurveyStatus,
+    TakeControl,
+)
+from protocol.version import PROTOCOL_MAJOR
+
+pytestmark = pytest.mark.timeout(120)
+
+
+async def _state(client: RigClient, queue: asyncio.Queue, still: bool = True) -> PtuState:
+    """The next PTU state (the next one standing still, by default)."""
+    async with asyncio.timeout(15):
+        while True:
+            state = await queue.get()
+            if not still or not state.moving:
+                return state
+
+
+async def _until(queue: asyncio.Queue, station: str, stages: set[str]) -> SurveyProgress:
+    async with asyncio.timeout(60):
+        while True:
+            p = await queue.get()
+            if p.station == station and p.stage in stages:
+                return p
+
+
+def _manifest(archive: Path, station: str) -> dict:
+    return json.loads((archive / station / "manifest.json").read_text())
+
+
+def _check_consistent(archive: Path, station: str) -> dict:
+    """Every file the manifest lists is whole; nothing half-written lies around."""
+    m = _manifest(archive, station)
+    folder = archive / station
+    for rel, size in m["files"].items():
+        assert (folder / rel).stat().st_size == size, rel
+    leftovers = [p for p in folder.rglob(".*") if p.name != "manifest.json"]
+    assert leftovers == []
+    return m
+
+
+async def test_full_survey_over_the_bus(daemon, client: RigClient, tmp_path: Path) -> None:
+    archive = Path(daemon.ready["archive"])
+    alive = client.alive()
+    assert await asyncio.wait_for(alive.get(), 10) is True
+    progress = client.subscribe(client.keys.progress)
+    results = client.subscribe(client.keys.result)
+    chips = client.subscribe(client.keys.chip)
+    frames = client.frames()
+    hello = await client.call("hello", Hello(PROTOCOL_MAJOR, 0))
+    assert isinstance(hello, Hello) and hello.rig == "itest" and hello.major == PROTOCOL_MAJOR
+    frame = await asyncio.wait_for(frames.get(), 10)
+    image = cv2.imdecode(np.frombuffer(frame.jpeg, np.uint8), cv2.IMREAD_COLOR)
+    assert image.shape == (576, 720, 3) and frame.header.width == 720
+
+    await client.command("control/take", TakeControl("tester"))
+    result = await run_station(client, progress, results, SurveyStart(rows=2, cols=3))
+    assert len(result.points) == 3 and (result.width, result.height) == (540, 288)
+    # The planted targets are known in world angles: the best points land on them.
+    targets = outcrop_panorama(3).targets
+    hits = [min(np.hypot(p.pan - t.pan, p.tilt - t.tilt) for t in targets) for p in result.points]
+    assert min(hits) < 0.5, hits
+
+    m = _check_consistent(archive, result.station)
+    assert m["status"] == "complete" and m["distance_m"] == 300
+    assert len(m["tiles"]) == 6 and len(m["chips"]) == 3
+    for tile in m["tiles"]:  # each tile was shot where the plan put it
+        col, row = tile["col"], tile["row"]
+        assert tile["pan"] == pytest.approx(-30 + 30 * col, abs=0.06)
+        assert abs(tile["tilt"]) > 5 and (tile["tilt"] > 0) == (row == 0)
+    for chip, point in zip(m["chips"], result.points, strict=True):
+        assert (chip["pan"], chip["tilt"]) == pytest.approx((point.pan, point.tilt), abs=0.06)
+    chip = await asyncio.wait_for(chips.get(), 5)
+    assert chip.jpeg[:2] == b"\xff\xd8" and chip.product.startswith("chips/")
+
+    session = result.station.split("/")[0]
+    listing = await client.call("archive/list", ArchiveList())
+    assert isinstance(listing, ArchiveListing) and session in listing.items
+    products = await client.call("archive/list", ArchiveList(session))
+    station = result.station.split("/")[1]
+    assert f"{station}/analysis/overlay.png" in products.items
+    assert f"{station}/tiles/r1c0.png" in products.items
+    data = await client.call("archive/get", ArchiveGet(session, f"{station}/analysis/overlay.png"))
+    assert isinstance(data, ArchiveData)
+    assert data.data == (archive / result.station / "analysis/overlay.png").read_bytes()
+    for bad in ("../../etc/passwd", f"{station}/manifest.json/..", "nope.png", ".hidden"):
+        reply = await client.call("archive/get", ArchiveGet(session, bad))
+        assert isinstance(reply, Ack) and reply.result == "REJECTED"
+
+    # The approach loop: choosing target 1 aims the next station at it, 60 m away.
+    ack = await client.command("target/choose", ChooseTarget(result.station, 1))
+    assert "60 m" in ack.detail
+    second = await run_station(client, progress, results, SurveyStart(rows=1, cols=2))
+    m2 = _manifest(archive, second.station)
+    assert m2["distance_m"] == 60 and m2["aim"]["from"] == f"{result.station}#1"
+    assert m2["plan"]["pan0"] == pytest.approx(result.points[0].pan)
+    assert m2["plan"]["camera"]["hfov"] == pytest.approx(6.1, abs=0.05)  # 5x closer
+    assert _manifest(archive, result.station)["choice"]["rank"] == 1
+
+
+async def test_malformed_and_wrong_version_requests_get_error_acks(
+    daemon, client: RigClient
+) -> None:
+    states = client.subscribe(client.keys.ptu_state, maxsize=1)
+    await client.command("control/take", TakeControl("tester"))
+    before = await _state(client, states)
+    hostile = {
+        "garbage": b"\xc1\xff not msgpack",
+        "empty": b"",
+        "a list": msgpack.packb([1, 2, 3]),
+        "wrong major": encode("ptu.goto", {"pan": 10.0, "tilt": 0.0}, src="tester").replace(
+            b"\xa1v\x01", b"\xa1v\x07"
+        ),
+        "wrong kind": encode("ptu.halt", {}, src="tester"),
+        "wrong type": encode("ptu.goto", {"pan": "ten", "tilt": 0.0}, src="tester"),
+        "out of range": encode("ptu.goto", {"pan": 1e9, "tilt": 0.0}, src="tester"),
+        "not finite": encode("ptu.goto", {"pan": float("nan"), "tilt": 0.0}, src="tester"),
+        "missing field": encode("ptu.goto", {"pan": 1.0}, src="tester"),
+        "oversized": encode("ptu.goto", {"pan": 1.0, "tilt": 0.0, "pad": b"x" * (9 << 20)}),
+    }
+    for what, payload in hostile.items():
+        reply = await client.call_raw("ptu/goto", payload)
+        assert isinstance(reply, Ack) and reply.result == "ERROR", what
+        assert reply.detail.startswith("ptu/goto:"), (what, reply.detail)
+    wrong_major = await client.call_raw("ptu/goto", hostile["wrong major"])
+    assert "major 7" in wrong_major.detail
+    # Beyond the unit's own limits: refused before anything is sent.
+    reply = await client.call("ptu/goto", PtuGoto(200.0, 0.0))
+    assert reply.result == "LIMIT" and "outside the soft limits" in reply.detail
+    after = await _state(client, states)
+    assert (after.pan, after.tilt) == (before.pan, before.tilt)
+    # ...and the daemon is fine.
+    assert isinstance(await client.call("survey/status", SurveyStatus()), Status)
+    await client.command("ptu/goto", PtuGoto(5.0, -2.0))
+    state = await _state(client, states)
+    while abs(state.pan - 5.0) > 0.06:
+        state = await _state(client, states)
+    assert state.tilt == pytest.approx(-2.0, abs=0.06)
+
+
+async def test_control_one_client_at_a_time(
+    daemon, client: RigClient, other_client: RigClient
+) -> None:
+    events = client.subscribe(client.keys.events)
+    reply = await other_client.call("ptu/goto", PtuGoto(3.0, 0.0))
+    assert reply.result == "REJECTED" and "control/take" in reply.detail
+    await client.command("control/take", TakeControl("tester"))
+    reply = await other_client.call("ptu/goto", PtuGoto(3.0, 0.0))
+    assert reply.result == "REJECTED" and "held by tester" in reply.detail
+    reply = await other_client.call("survey/start", SurveyStart())
+    assert reply.result == "REJECTED"
+    reply = await other_client.call("control/release", ReleaseControl("intruder"))
+    assert reply.result == "REJECTED"
+    # Halt always works, whoever sends it.
+    assert (await other_client.call("ptu/halt", PtuHalt())).ok
+    # Take-over is explicit, and the previous holder hears about it.
+    await other_client.command("control/take", TakeControl("intruder"))
+    async with asyncio.timeout(5):
+        while True:
+            event: Event = await events.get()
+            if "intruder took control from tester" in event.text:
+                break
+    reply = await client.call("ptu/goto", PtuGoto(3.0, 0.0))
+    assert reply.result == "REJECTED"
+    assert (await other_client.call("ptu/goto", PtuGoto(3.0, 0.0))).ok
+    status = await client.call("survey/status", SurveyStatus())
+    assert status.controller == "intruder"
+
+
+async def test_sigterm_mid_survey_leaves_a_consistent_archive(daemon, client: RigClient) -> None:
+    archive = Path(daemon.ready["archive"])
+    alive = client.alive()
+    assert await asyncio.wait_for(alive.get(), 10) is True
+    progress = client.subscribe(client.keys.progress)
+    await client.command("control/take", TakeControl("tester"))
+    station = (await client.command("survey/start", SurveyStart(rows=2, cols=3))).detail
+    await _until(progress, station, {"tiles"})
+    daemon.proc.send_signal(signal.SIGTERM)
+    assert await asyncio.wait_for(daemon.proc.wait(), 20) == 0
+    assert await asyncio.wait_for(alive.get(), 10) is False
+    m = _check_consistent(archive, station)
+    assert m["status"] == "incomplete" and "stopping" in m["reason"]
+    assert 1 <= len(m["tiles"]) < 6
+    log = daemon.log.read_text()
+    assert "Traceback" not in log
+
+
+async def test_worker_killed_mid_survey_fails_that_survey_only(
+    start_daemon, client: RigClient
+) -> None:
+    # Full-resolution tiles make the analysis long enough to be caught in the act.
+    daemon = await start_daemon(downsample=1.0)
+    archive = Path(daemon.ready["archive"])
+    progress = client.subscribe(client.keys.progress)
+    events = client.subscribe(client.keys.events)
+    await client.command("control/take", TakeControl("tester"))
+    status = await client.call("survey/status", SurveyStatus())
+    old_pid = status.worker_pid
+    assert old_pid == daemon.ready["worker_pid"] != 0
+    station = (
+        await client.command("survey/start", SurveyStart(rows=2, cols=3, downsample=1.0))
+    ).detail
+    await _until(progress, station, {"analysis"})
+    os.kill(old_pid, signal.SIGKILL)
+    final = await _until(progress, station, {"failed", "done"})
+    assert final.stage == "failed"
+    texts = []
+    async with asyncio.timeout(10):
+        while not any("failed" in t and "worker" in t for t in texts):
+            texts.append((await events.get()).text)
+    assert any("restarted as pid" in t for t in texts) or True  # may precede the failure
+    m = _check_consistent(archive, station)
+    assert m["status"] == "failed" and "worker" in m["reason"]
+    assert not (archive / station / "analysis").exists()
+    status = await client.call("survey/status", SurveyStatus())
+    assert status.worker_pid not in (0, old_pid) and "worker" in status.last_error
+    # The next survey works.
+    results = client.subscribe(client.keys.result)
+    result = await run_station(client, progress, results, SurveyStart(rows=1, cols=2))
+    assert len(result.points) == 3
+    assert daemon.proc.returncode is None
+
+
+async def test_garbage_on_the_serial_line_does_not_break_a_survey(
+    start_daemon, client: RigClient
+) -> None:
+    daemon = await start_daemon("&fault=garbage:PP:3&fault=garbage:TP:7&fault=garbage:TP:20")
+    progress = client.subscribe(client.keys.progress)
+    results = client.subscribe(client.keys.result)
+    await client.command("control/take", TakeControl("tester"))
+    result = await run_station(client, progress, results, SurveyStart(rows=1, cols=2))
+    assert len(result.points) == 3
+    assert await daemon.stop() == 0
+
+
+async def test_commands_without_a_daemon_fail_clearly(client: RigClient) -> None:
+    with pytest.raises(RigError, match="no rig 'itest' answers"):
+        await client.call("survey/status", SurveyStatus(), timeout=1.0)
