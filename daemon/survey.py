@@ -15,7 +15,7 @@ import functools
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import cv2
@@ -37,6 +37,7 @@ from .config import SurveyConfig
 from .ptu import PtuError, PtuLimitError
 from .ptu.geometry import CameraModel, MosaicGeometry
 from .rig import Rig
+from .vision.params import PROFILES
 from .worker import VisionWorker, WorkerError
 
 __all__ = ["Survey", "SurveyBusyError", "SurveyTelemetry"]
@@ -107,7 +108,15 @@ class Survey:
         the plan leaves the unit's limits or a survey runs."""
         if self.running:
             raise SurveyBusyError(f"station {self.station_id} is still running")
-        geometry = self.plan(req)
+        c = self.cfg
+        req = replace(
+            req,
+            rows=c.rows if req.rows is None else req.rows,
+            cols=c.cols if req.cols is None else req.cols,
+            downsample=c.downsample if req.downsample is None else req.downsample,
+            profile=c.profile if req.profile is None else req.profile,
+        )
+        geometry = self._plan(req)
         ap = self._approach
         if not ap.session:
             ap.session, ap.index = self.archive.new_session(), 0
@@ -148,9 +157,9 @@ class Survey:
     def station_id(self) -> str:
         return f"{self._approach.session}/{self.station.name}" if self.station else ""
 
-    def plan(self, req: SurveyStart) -> MosaicGeometry:
-        if req.profile not in ("paper", "default"):
-            raise ValueError(f"unknown profile {req.profile!r}")
+    def _plan(self, req: SurveyStart) -> MosaicGeometry:
+        if req.profile not in PROFILES:
+            raise ValueError(f"unknown profile {req.profile!r}; known: {', '.join(PROFILES)}")
         ap = self._approach
         here = self.rig.pose
         pan0 = req.pan0 if req.pan0 is not None else (ap.aim[0] if ap.aim else here.pan)

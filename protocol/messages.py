@@ -167,20 +167,26 @@ class PtuHome(Message):
 
 @dataclass(frozen=True)
 class SurveyStart(Message):
-    """Shoot a rows × cols mosaic centred where the head points (or at pan0/tilt0)."""
+    """Shoot a rows × cols mosaic centred where the head points (or at pan0/tilt0).
+
+    Fields left out (None) take the rig's configured values.
+    """
 
     KIND: ClassVar[str] = "survey.start"
-    rows: int = 2
-    cols: int = 3
-    downsample: float = 4.0
-    profile: str = "default"
+    rows: int | None = None
+    cols: int | None = None
+    downsample: float | None = None
+    profile: str | None = None
     pan0: float | None = None
     tilt0: float | None = None
 
     def __post_init__(self) -> None:
-        _in("rows", self.rows, 1, 16)
-        _in("cols", self.cols, 1, 32)
-        _in("downsample", self.downsample, 1.0, 16.0)
+        if self.rows is not None:
+            _in("rows", self.rows, 1, 16)
+        if self.cols is not None:
+            _in("cols", self.cols, 1, 32)
+        if self.downsample is not None:
+            _in("downsample", self.downsample, 1.0, 16.0)
 
 
 @dataclass(frozen=True)

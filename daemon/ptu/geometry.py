@@ -72,7 +72,7 @@ class CameraModel:
         to a distant flat cliff).
 
         >>> round(CameraModel(hfov=30.0).zoomed(5.0).hfov, 3)
-        6.101
+        6.135
         """
         half = math.atan(math.tan(math.radians(self.hfov) / 2.0) / level)
         return CameraModel(self.width, self.height, math.degrees(2.0 * half))

@@ -128,7 +128,7 @@ async def test_full_survey_over_the_bus(daemon, client: RigClient, tmp_path: Pat
     m2 = _manifest(archive, second.station)
     assert m2["distance_m"] == 60 and m2["aim"]["from"] == f"{result.station}#1"
     assert m2["plan"]["pan0"] == pytest.approx(result.points[0].pan)
-    assert m2["plan"]["camera"]["hfov"] == pytest.approx(6.1, abs=0.05)  # 5x closer
+    assert m2["plan"]["camera"]["hfov"] == pytest.approx(6.135, abs=0.01)  # 5x closer
     assert _manifest(archive, result.station)["choice"]["rank"] == 1
 
 

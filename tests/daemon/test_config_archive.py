@@ -1,0 +1,139 @@
+"""Config parsing, the archive's retrieval rules and crash recovery, sd_notify, control."""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+from pathlib import Path
+
+import pytest
+
+from daemon.archive import Archive, ArchiveError
+from daemon.config import ConfigError, load
+from daemon.rig import Control
+from daemon.sdnotify import Notifier
+
+
+def _toml(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "c.toml"
+    path.write_text(text)
+    return path
+
+
+def test_config_file_and_overrides(tmp_path: Path) -> None:
+    path = _toml(
+        tmp_path,
+        """
+rig = "field-1"
+ptu = "serial:///dev/ptu"
+[camera]
+url = "v4l2://0"
+hfov = 24
+[zenoh]
+mode = "peer"
+listen = ["tcp/127.0.0.1:7447"]
+[survey]
+rows = 3
+cols = 4
+approach = [300, 60, 10]
+""",
+    )
+    cfg = load(path, ptu="emu://")
+    assert (cfg.rig, cfg.ptu, cfg.camera.hfov, cfg.survey.rows) == ("field-1", "emu://", 24.0, 3)
+    assert cfg.zenoh.listen == ("tcp/127.0.0.1:7447",) and cfg.survey.approach == (300, 60, 10)
+    assert cfg.keys.frame == "cyborg/field-1/cam/frame"
+    shipped = Path(__file__).parents[2] / "systemd" / "cyborgd.toml"
+    assert load(shipped).ptu == "serial:///dev/ptu"
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("rgi = 'typo'", "unknown key(s) in"),
+        ("[camera]\nulr = 'x'", "unknown key(s) in [camera]: ulr"),
+        ("[survey]\nrows = 'two'", "survey.rows: expected an integer"),
+        ("[survey]\nrows = 40", "survey.rows 1..16"),
+        ("[survey]\nprofile = 'fancy'", "survey.profile must be one of"),
+        ("[survey]\napproach = []", "positive distances"),
+        ("[camera]\nhfov = 0", "camera.hfov"),
+        ("[zenoh]\nmode = 'client'", "client mode needs"),
+        ("[zenoh]\nlisten = 'tcp/x'", "zenoh.listen: expected a list"),
+        ("[zenoh]\nlisten = ['7447']", "want proto/address"),
+        ("rig = 'a/b'", "rig name"),
+        ("camera = 3", "[camera] must be a table"),
+        ("not toml [", "not valid TOML"),
+    ],
+)
+def test_config_errors_name_the_key(tmp_path: Path, text: str, message: str) -> None:
+    with pytest.raises(ConfigError, match=None) as info:
+        load(_toml(tmp_path, text))
+    assert message in str(info.value)
+
+
+def test_missing_config_file(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="cannot read"):
+        load(tmp_path / "nope.toml")
+
+
+def test_archive_serves_products_and_nothing_else(tmp_path: Path) -> None:
+    archive = Archive(tmp_path / "a", "r")
+    archive.open()
+    session = archive.new_session()
+    station = archive.new_station(session, 1, 300.0)
+    station.write("notes.txt", b"layered sandstone")
+    (station.folder / ".notes.txt.tmp123").write_bytes(b"half")
+    (tmp_path / "a" / "secret.txt").write_bytes(b"no")
+    assert archive.sessions() == [session]
+    assert archive.products(session) == ["st01-300m/manifest.json", "st01-300m/notes.txt"]
+    assert archive.read(session, "st01-300m/notes.txt", 1000) == b"layered sandstone"
+    for bad_session, bad_product in [
+        (session, "../secret.txt"),
+        (session, "st01-300m/.notes.txt.tmp123"),
+        (session, "/etc/passwd"),
+        (session, "st01-300m"),
+        ("..", "secret.txt"),
+        ("", "x"),
+        ("nope", "x"),
+    ]:
+        with pytest.raises(ArchiveError):
+            archive.read(bad_session, bad_product, 1000)
+    with pytest.raises(ArchiveError, match="over the 5-byte"):
+        archive.read(session, "st01-300m/notes.txt", 5)
+
+
+def test_archive_recovers_interrupted_stations(tmp_path: Path) -> None:
+    archive = Archive(tmp_path / "a")
+    archive.open()
+    session = archive.new_session()
+    archive.new_station(session, 1, 300.0)  # left in progress, as after a SIGKILL
+    done = archive.new_station(session, 2, 60.0)
+    done.finish("complete")
+    (done.folder / ".analysis.partial").mkdir()
+    assert Archive(tmp_path / "a").open() == [f"{session}/st01-300m"]
+    m = json.loads((tmp_path / "a" / session / "st01-300m" / "manifest.json").read_text())
+    assert m["status"] == "incomplete" and "stopped" in m["reason"]
+    assert Archive(tmp_path / "a").open() == []
+
+
+def test_sd_notify_over_a_real_socket(tmp_path: Path) -> None:
+    path = str(tmp_path / "notify")
+    with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as server:
+        server.bind(path)
+        env = {"NOTIFY_SOCKET": path, "WATCHDOG_USEC": "4000000", "WATCHDOG_PID": str(os.getpid())}
+        notifier = Notifier(env)
+        assert notifier.enabled and notifier.watchdog_interval == 2.0
+        notifier.notify("READY=1")
+        assert server.recv(100) == b"READY=1"
+    assert Notifier({}).watchdog_interval is None and not Notifier({}).enabled
+    Notifier({}).notify("READY=1")  # outside systemd: nothing, no error
+    assert Notifier({"WATCHDOG_USEC": "5", "WATCHDOG_PID": "1"}).watchdog_interval is None
+
+
+def test_control_is_explicit() -> None:
+    control = Control()
+    assert not control.allows("a") and not control.allows("")
+    assert control.take("a") == ""
+    assert control.allows("a") and not control.allows("b")
+    assert control.take("b") == "a"
+    assert not control.release("a") and control.release("b") and control.holder == ""

@@ -1,0 +1,144 @@
+"""The survey engine in-process (emulated PTU, simulated camera, a real worker process):
+a full disk and a camera that fails mid-survey fail the station cleanly and keep what
+was written."""
+
+from __future__ import annotations
+
+import errno
+import json
+from pathlib import Path
+
+import pytest
+
+import daemon.archive as archive_mod
+from daemon.archive import Archive
+from daemon.camera import CameraError, open_camera
+from daemon.config import SurveyConfig
+from daemon.ptu import open_ptu
+from daemon.rig import Rig
+from daemon.survey import Survey, SurveyTelemetry
+from daemon.worker import VisionWorker
+from protocol.messages import SurveyStart
+
+pytestmark = pytest.mark.timeout(120)
+
+
+class Recorder:
+    def __init__(self) -> None:
+        self.progress, self.results, self.chips, self.events = [], [], [], []
+
+    def telemetry(self) -> SurveyTelemetry:
+        return SurveyTelemetry(
+            self.progress.append,
+            self.results.append,
+            self.chips.append,
+            lambda level, text: self.events.append((level, text)),
+        )
+
+
+@pytest.fixture
+async def engine(tmp_path: Path):
+    ptu = open_ptu("emu://?time_scale=50")
+    rig = Rig(ptu, lambda pose: open_camera("sim://outcrop?seed=3", pose=pose))
+    worker = VisionWorker()
+    worker.start()
+    await ptu.open()
+    rec = Recorder()
+    archive = Archive(tmp_path / "archive", "t")
+    archive.open()
+    survey = Survey(rig, worker, archive, SurveyConfig(), hfov=30.0, telemetry=rec.telemetry())
+    try:
+        yield survey, rec, archive
+    finally:
+        await survey.cancel("test over")
+        await ptu.close()
+        worker.close()
+
+
+class DiskFull:
+    """The disk fills up after ``images`` PNG files; with ``everything``, the manifest
+    updates fail from then on too."""
+
+    def __init__(self, images: int, everything: bool) -> None:
+        self.images, self.everything = images, everything
+        self.png, self.atomic = archive_mod.write_png, archive_mod.write_atomic
+        self.written = 0
+
+    def _refuse(self, path: Path) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    def write_png(self, path: Path, image) -> None:
+        if self.written >= self.images:
+            self._refuse(path)
+        self.written += 1
+        self.png(path, image)
+
+    def write_atomic(self, path: Path, data: bytes) -> None:
+        if self.everything and self.written >= self.images:
+            self._refuse(path)
+        self.atomic(path, data)
+
+
+@pytest.mark.parametrize("everything", [False, True], ids=["images", "everything"])
+async def test_full_disk_fails_the_station_and_keeps_what_was_written(
+    engine, monkeypatch, everything: bool
+) -> None:
+    survey, rec, archive = engine
+    disk = DiskFull(3, everything)
+    monkeypatch.setattr(archive_mod, "write_png", disk.write_png)
+    monkeypatch.setattr(archive_mod, "write_atomic", disk.write_atomic)
+    survey.start(SurveyStart(rows=2, cols=3), "tester")
+    await survey._task
+    folder = survey.station.folder
+    m = json.loads((folder / "manifest.json").read_text())
+    listed = ["tiles/r0c0.png", "tiles/r0c1.png", "tiles/r0c2.png"]
+    # With everything refused, the manifest update after the third tile failed too: the
+    # tile is on disk but unlisted, and the manifest stays true to what it lists.
+    assert [t["file"] for t in m["tiles"]] == listed[: 2 if everything else 3]
+    for rel, size in m["files"].items():
+        assert (folder / rel).stat().st_size == size
+    assert not [p for p in folder.rglob(".*") if p.name != "manifest.json"]
+    if everything:
+        assert m["status"] == "in-progress"  # the disk refused even the last word...
+        monkeypatch.undo()
+        assert archive.open() == [f"{folder.parent.name}/{folder.name}"]  # ...fixed at start
+        m = json.loads((folder / "manifest.json").read_text())
+        assert m["status"] == "incomplete"
+    else:
+        assert m["status"] == "failed"
+        assert "No space left on device" in m["reason"] and "r1c2.png" in m["reason"]
+    assert rec.events[-1][0] == "error" and "No space left on device" in rec.events[-1][1]
+    assert rec.progress[-1].stage == "failed" and survey.state == "idle"
+    # The disk is freed: the next station works.
+    monkeypatch.undo()
+    survey.start(SurveyStart(rows=1, cols=2), "tester")
+    await survey._task
+    assert survey.state == "awaiting-choice" and len(rec.results) == 1
+
+
+async def test_camera_failure_mid_survey_fails_the_station(engine, monkeypatch) -> None:
+    survey, _, _ = engine
+    camera = survey.rig.camera
+    real_grab, grabs = camera.grab, []
+
+    async def flaky():
+        grabs.append(1)
+        if len(grabs) == 3:
+            raise CameraError("sim camera: frame unreadable")
+        return await real_grab()
+
+    monkeypatch.setattr(camera, "grab", flaky)
+    survey.start(SurveyStart(rows=2, cols=3), "tester")
+    await survey._task
+    m = survey.station.manifest
+    assert m["status"] == "failed" and "frame unreadable" in m["reason"]
+    assert len(m["tiles"]) == 2
+
+
+async def test_plan_outside_the_limits_is_refused_before_moving(engine) -> None:
+    survey, _, archive = engine
+    from daemon.ptu import PtuLimitError  # noqa: PLC0415
+
+    with pytest.raises(PtuLimitError, match="outside the unit's limits"):
+        survey.start(SurveyStart(rows=4, cols=3, tilt0=20.0), "tester")
+    assert archive.sessions() == [] and survey.state == "idle"
