@@ -18,24 +18,16 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
-import statistics
 import sys
 import time
 
+from bench.stats import latency
 from daemon.ptu import EmulatedPtu, PtyPtu
 from daemon.ptu.commanded import CommandedPtu
 from daemon.ptu.emulator import Ptu46Emulator
 from daemon.ptu.motion import move_time
 
 MOVES = [("pan", 5.0), ("pan", 30.0), ("pan", 90.0), ("pan", 300.0), ("tilt", 20.0), ("tilt", 70.0)]
-
-
-def _stats(samples: list[float]) -> dict[str, float]:
-    samples = sorted(samples)
-    return {
-        "median_ms": 1e3 * statistics.median(samples),
-        "p99_ms": 1e3 * samples[min(len(samples) - 1, round(0.99 * (len(samples) - 1)))],
-    }
 
 
 async def _round_trips(unit: CommandedPtu, n: int) -> dict[str, float]:
@@ -45,7 +37,7 @@ async def _round_trips(unit: CommandedPtu, n: int) -> dict[str, float]:
         t0 = time.perf_counter()
         await unit._int("PP")
         samples.append(time.perf_counter() - t0)
-    return _stats(samples)
+    return latency(samples)
 
 
 async def round_trips(n: int) -> dict[str, dict[str, float]]:

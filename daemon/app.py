@@ -64,8 +64,11 @@ class _Service:
         period = 1.0 / self.cfg.state_rate
         key = self.bus.keys.ptu_state
         while True:
+            fresh = self.rig.ptu.last_position
             try:
-                self.rig.note(await self.rig.ptu.position())
+                if fresh is None or time.time() - fresh.timestamp > period:
+                    fresh = await self.rig.ptu.position()  # else a motion wait just read it
+                self.rig.note(fresh)
             except PtuError as exc:
                 _LOGGER.debug("state poll: %s", exc)
             self.bus.publish(key, self._state(), latest_wins=True)

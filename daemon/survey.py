@@ -376,40 +376,44 @@ class Survey:
     async def _chips(
         self, station: Station, points: list[InterestPoint], timing: dict[str, float]
     ) -> None:
+        """Re-point at each interest point and take a full-resolution frame; each chip is
+        saved and published while the head already moves to the next one."""
         ptu = self.rig.ptu
-        for k, point in enumerate(points[:CHIPS], start=1):
-            self._progress("chips", k - 1, min(CHIPS, len(points)))
+        chosen = points[:CHIPS]
+        saving: asyncio.Task[Chip] | None = None
+        for k, point in enumerate(chosen):
+            self._progress("chips", k, len(chosen))
             timing["predicted_motion_s"] += ptu.predict_move_time(point.pan, point.tilt)
-            position = await self.rig.move_to(point.pan, point.tilt)
+            await ptu.move_to(point.pan, point.tilt, wait=False)
+            self.rig.mark_moving()
+            if saving is not None:
+                self.tel.chip(await saving)
+            position = await self.rig.settle()
             if self.cfg.settle:
                 await asyncio.sleep(self.cfg.settle)
             tg = time.perf_counter()
             frame = await self.rig.grab()
             timing["grab_s"] += time.perf_counter() - tg
-            rel = f"chips/chip{point.rank}.png"
-            await asyncio.to_thread(station.write_png, rel, frame.image)
-            station.manifest["chips"].append(
-                {
-                    "file": rel,
-                    "rank": point.rank,
-                    "pan": position.pan,
-                    "tilt": position.tilt,
-                    "t": frame.timestamp,
-                }
-            )
-            station.save()
-            ok, jpeg = cv2.imencode(".jpg", frame.image, [cv2.IMWRITE_JPEG_QUALITY, 85])
-            self.tel.chip(
-                Chip(
-                    self.station_id,
-                    point.rank,
-                    position.pan,
-                    position.tilt,
-                    rel,
-                    jpeg.tobytes() if ok else b"",
+            saving = asyncio.create_task(
+                asyncio.to_thread(
+                    self._save_chip, station, point, (position.pan, position.tilt), frame
                 )
             )
-        self._progress("chips", min(CHIPS, len(points)), min(CHIPS, len(points)))
+        if saving is not None:
+            self.tel.chip(await saving)
+        self._progress("chips", len(chosen), len(chosen))
+
+    def _save_chip(
+        self, station: Station, point: InterestPoint, pose: tuple[float, float], frame: Frame
+    ) -> Chip:
+        rel = f"chips/chip{point.rank}.png"
+        station.write_png(rel, frame.image)
+        station.manifest["chips"].append(
+            {"file": rel, "rank": point.rank, "pan": pose[0], "tilt": pose[1], "t": frame.timestamp}
+        )
+        station.save()
+        ok, jpeg = cv2.imencode(".jpg", frame.image, [cv2.IMWRITE_JPEG_QUALITY, 85])
+        return Chip(self.station_id, point.rank, *pose, rel, jpeg.tobytes() if ok else b"")
 
 
 def _describe(exc: BaseException) -> str:

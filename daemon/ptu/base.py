@@ -80,6 +80,9 @@ class PtuPosition:
 class PanTiltUnit(ABC):
     """One pan-tilt head. Methods raise :class:`daemon.ptu.errors.PtuError` subclasses."""
 
+    last_position: PtuPosition | None = None
+    """The latest position any caller read (motion waits poll often: others may reuse it)."""
+
     @property
     @abstractmethod
     def state(self) -> LinkState: ...
