@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo test bench bench-quality bench-speed bench-ptu lint clean
+.PHONY: demo test bench bench-quality bench-speed bench-ptu bench-survey bench-bus lint clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -23,7 +23,7 @@ test: $(STAMP)
 	$(PY) -m ruff check .
 	$(PY) -m pytest -q
 
-bench: bench-quality bench-speed bench-ptu
+bench: bench-quality bench-speed bench-ptu bench-survey bench-bus
 
 bench-quality: $(STAMP)
 	$(PY) -m bench.quality --scenes 120
@@ -33,6 +33,12 @@ bench-speed: $(STAMP)
 
 bench-ptu: $(STAMP)
 	$(PY) -m bench.ptu
+
+bench-survey: $(STAMP)
+	$(PY) -m bench.survey
+
+bench-bus: $(STAMP)
+	$(PY) -m bench.bus
 
 lint: $(STAMP)
 	$(PY) -m ruff check .

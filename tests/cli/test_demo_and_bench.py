@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import json
 
-from bench import ptu, quality, speed
+import pytest
+
+from bench import bus, ptu, quality, speed, survey
 from daemon.demo import run_demo
 
 
@@ -40,3 +42,22 @@ def test_ptu_benchmark_smoke(capsys):
     for move in out["moves"]:
         # At 20x, the reply's line time alone is ~60 ms emulated; the model is the floor.
         assert move["measured_s"] >= move["predicted_s"] - 0.01
+
+
+@pytest.mark.timeout(120)
+def test_survey_benchmark_smoke(capsys):
+    argv = ["--runs", "1", "--rows", "1", "--cols", "2", "--time-scale", "8", "--json"]
+    assert survey.main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    for cond in out:
+        (run,) = cond["runs"]
+        assert run["wall_s"] > run["lower_bound_s"] > 0 and run["ratio"] > 1.0
+    assert out[1]["watched"] and out[1]["frames_received"] >= 0
+
+
+@pytest.mark.timeout(120)
+def test_bus_benchmark_smoke(capsys):
+    assert bus.main(["--seconds", "1", "--commands", "3", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["subscribers"] for r in rows] == [0, 1, 16]
+    assert rows[2]["fps_per_subscriber"] > 5 and rows[2]["frames"]["median_ms"] > 0
