@@ -96,6 +96,7 @@ async def _run(seconds: float, n_commands: int) -> list[dict]:
         endpoint = f"tcp/127.0.0.1:{port}"
         async with launch(["--config", str(config)], Path(tmp) / "cyborgd.log"):
             with RigClient.open(Transport(connect=(endpoint,)), "busbench", "bench") as client:
+                await client.wait_alive()
                 await client.command("control/take", TakeControl("bench"))
                 for n in (0, 1, 16):
                     watchers = [_Watcher(endpoint) for _ in range(n)]

@@ -53,6 +53,7 @@ async def _condition(
     config.write_text(_config(archive, port, time_scale, 10.0 if watch else 0.0))
     async with launch(["--config", str(config)], work / "cyborgd.log"):
         with RigClient.open(Transport(connect=(f"tcp/127.0.0.1:{port}",)), "bench", "bench") as c:
+            await c.wait_alive()
             progress, results = c.subscribe(c.keys.progress), c.subscribe(c.keys.result)
             frames = c.frames() if watch else None
             await c.command("control/take", TakeControl("bench"))

@@ -92,6 +92,7 @@ async def _demo(out: Path, time_scale: float, seed: int) -> int:
         with RigClient.open(
             Transport(connect=(f"tcp/127.0.0.1:{port}",)), RIG, "demo-scientist"
         ) as client:
+            await client.wait_alive()
             progress = client.subscribe(client.keys.progress)
             results = client.subscribe(client.keys.result)
             await client.command("control/take", TakeControl(client.name))

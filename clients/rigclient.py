@@ -165,6 +165,20 @@ class RigClient:
         )
         return queue
 
+    async def wait_alive(self, timeout: float = 10.0) -> None:
+        """Return once the rig's liveliness token is visible (its commands are declared
+        before it); RigUnavailableError after ``timeout``."""
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + timeout
+
+        def tokens() -> list:
+            return list(self.session.liveliness().get(self.keys.alive, timeout=1.0))
+
+        while not await asyncio.to_thread(tokens):
+            if loop.time() > deadline:
+                raise RigUnavailableError(f"rig {self.keys.rig!r} is not on the bus")
+            await asyncio.sleep(0.05)
+
     def alive(self) -> asyncio.Queue[bool]:
         """True when the daemon's liveliness token appears, False when it goes."""
         loop = asyncio.get_running_loop()

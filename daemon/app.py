@@ -165,6 +165,7 @@ async def run(cfg: Config, ready_stream=sys.stdout) -> int:
             announce=service.event,
             max_reply=MAX_MESSAGE - 4096,
         )
+        queries = bus.declare_commands()
         bus.announce()
         notifier.notify("READY=1")
         ready = {
@@ -180,7 +181,7 @@ async def run(cfg: Config, ready_stream=sys.stdout) -> int:
             service.event("warning", f"station {name} was interrupted; marked incomplete")
         async with asyncio.TaskGroup() as tg:
             tasks = [
-                tg.create_task(bus.serve(commands.handle), name="commands"),
+                tg.create_task(bus.serve(queries, commands.handle), name="commands"),
                 tg.create_task(service.state_loop(), name="ptu-state"),
                 tg.create_task(service.frame_loop(), name="frames"),
             ]

@@ -108,10 +108,11 @@ class Bus:
         """Declare the liveliness token: from now on clients see the rig as up."""
         self._token = self.session.liveliness().declare_token(self.keys.alive)
 
-    async def serve(self, handler: CommandHandler) -> None:
-        """Answer every command query with ``handler``'s reply, each in its own task.
+    def declare_commands(self) -> asyncio.Queue[zenoh.Query]:
+        """Declare the command queryable; queries wait in the returned queue for :meth:`serve`.
 
-        A slow command (a survey start, an archive fetch) never delays a halt.
+        Declared before the liveliness token, so a client that sees the rig alive can
+        command it.
         """
         loop = asyncio.get_running_loop()
         queries: asyncio.Queue[zenoh.Query] = asyncio.Queue()
@@ -123,6 +124,13 @@ class Bus:
         self._queryable = self.session.declare_queryable(
             self.keys.all_commands, zenoh.handlers.Callback(on_query, indirect=False)
         )
+        return queries
+
+    async def serve(self, queries: asyncio.Queue[zenoh.Query], handler: CommandHandler) -> None:
+        """Answer every command query with ``handler``'s reply, each in its own task.
+
+        A slow command (a survey start, an archive fetch) never delays a halt.
+        """
         tasks: set[asyncio.Task[None]] = set()
         try:
             while True:

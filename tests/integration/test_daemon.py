@@ -74,6 +74,7 @@ def _check_consistent(archive: Path, station: str) -> dict:
 
 
 async def test_full_survey_over_the_bus(daemon, client: RigClient, tmp_path: Path) -> None:
+    await client.wait_alive()
     archive = Path(daemon.ready["archive"])
     alive = client.alive()
     assert await asyncio.wait_for(alive.get(), 10) is True
@@ -135,6 +136,7 @@ async def test_full_survey_over_the_bus(daemon, client: RigClient, tmp_path: Pat
 async def test_malformed_and_wrong_version_requests_get_error_acks(
     daemon, client: RigClient
 ) -> None:
+    await client.wait_alive()
     states = client.subscribe(client.keys.ptu_state, maxsize=1)
     await client.command("control/take", TakeControl("tester"))
     before = await _state(client, states)
@@ -175,6 +177,8 @@ async def test_malformed_and_wrong_version_requests_get_error_acks(
 async def test_control_one_client_at_a_time(
     daemon, client: RigClient, other_client: RigClient
 ) -> None:
+    await client.wait_alive()
+    await other_client.wait_alive()
     events = client.subscribe(client.keys.events)
     reply = await other_client.call("ptu/goto", PtuGoto(3.0, 0.0))
     assert reply.result == "REJECTED" and "control/take" in reply.detail
@@ -202,6 +206,7 @@ async def test_control_one_client_at_a_time(
 
 
 async def test_sigterm_mid_survey_leaves_a_consistent_archive(daemon, client: RigClient) -> None:
+    await client.wait_alive()
     archive = Path(daemon.ready["archive"])
     alive = client.alive()
     assert await asyncio.wait_for(alive.get(), 10) is True
@@ -224,6 +229,7 @@ async def test_worker_killed_mid_survey_fails_that_survey_only(
 ) -> None:
     # Full-resolution tiles make the analysis long enough to be caught in the act.
     daemon = await start_daemon(downsample=1.0)
+    await client.wait_alive()
     archive = Path(daemon.ready["archive"])
     progress = client.subscribe(client.keys.progress)
     events = client.subscribe(client.keys.events)
@@ -259,6 +265,7 @@ async def test_garbage_on_the_serial_line_does_not_break_a_survey(
     start_daemon, client: RigClient
 ) -> None:
     daemon = await start_daemon("&fault=garbage:PP:3&fault=garbage:TP:7&fault=garbage:TP:20")
+    await client.wait_alive()
     progress = client.subscribe(client.keys.progress)
     results = client.subscribe(client.keys.result)
     await client.command("control/take", TakeControl("tester"))
@@ -270,3 +277,5 @@ async def test_garbage_on_the_serial_line_does_not_break_a_survey(
 async def test_commands_without_a_daemon_fail_clearly(client: RigClient) -> None:
     with pytest.raises(RigError, match="no rig 'itest' answers"):
         await client.call("survey/status", SurveyStatus(), timeout=1.0)
+    with pytest.raises(RigError, match="not on the bus"):
+        await client.wait_alive(timeout=0.3)
