@@ -25,7 +25,7 @@ from pathlib import Path
 import zenoh
 
 from bench.stats import latency
-from clients.launch import free_port, launch
+from clients.launch import free_port, launch, simulated_config
 from clients.rigclient import RigClient
 from protocol.envelope import decode
 from protocol.keys import Keys
@@ -33,20 +33,6 @@ from protocol.messages import Hello, PtuGoto, TakeControl
 from protocol.transport import Transport
 
 FPS = 25
-
-
-def _config(archive: Path, port: int) -> str:
-    return f"""\
-rig = "busbench"
-archive = "{archive}"
-ptu = "pty://?model=D46-17"
-[camera]
-url = "sim://outcrop?seed=3"
-[zenoh]
-listen = ["tcp/127.0.0.1:{port}"]
-[frames]
-rate = {FPS}
-"""
 
 
 class _Watcher:
@@ -92,7 +78,11 @@ async def _run(seconds: float, n_commands: int) -> list[dict]:
     with tempfile.TemporaryDirectory(prefix="bench-bus-") as tmp:
         port = free_port()
         config = Path(tmp) / "bus.toml"
-        config.write_text(_config(Path(tmp) / "archive", port))
+        config.write_text(
+            simulated_config(
+                "busbench", Path(tmp) / "archive", listen=[f"tcp/127.0.0.1:{port}"], frame_rate=FPS
+            )
+        )
         endpoint = f"tcp/127.0.0.1:{port}"
         async with launch(["--config", str(config)], Path(tmp) / "cyborgd.log"):
             with RigClient.open(Transport(connect=(endpoint,)), "busbench", "bench") as client:

@@ -24,24 +24,10 @@ import tempfile
 from pathlib import Path
 
 from clients.demo import run_station
-from clients.launch import free_port, launch
+from clients.launch import free_port, launch, simulated_config
 from clients.rigclient import RigClient
 from protocol.messages import SurveyStart, TakeControl
 from protocol.transport import Transport
-
-
-def _config(archive: Path, port: int, time_scale: float, rate: float) -> str:
-    return f"""\
-rig = "bench"
-archive = "{archive}"
-ptu = "pty://?model=D46-17&time_scale={time_scale:g}"
-[camera]
-url = "sim://outcrop?seed=3"
-[zenoh]
-listen = ["tcp/127.0.0.1:{port}"]
-[frames]
-rate = {rate:g}
-"""
 
 
 async def _condition(
@@ -50,7 +36,15 @@ async def _condition(
     port = free_port()
     archive = work / f"archive-{'watched' if watch else 'unwatched'}"
     config = work / f"bench-{port}.toml"
-    config.write_text(_config(archive, port, time_scale, 10.0 if watch else 0.0))
+    config.write_text(
+        simulated_config(
+            "bench",
+            archive,
+            listen=[f"tcp/127.0.0.1:{port}"],
+            time_scale=time_scale,
+            frame_rate=10.0 if watch else 0.0,
+        )
+    )
     async with launch(["--config", str(config)], work / "cyborgd.log"):
         with RigClient.open(Transport(connect=(f"tcp/127.0.0.1:{port}",)), "bench", "bench") as c:
             await c.wait_alive()

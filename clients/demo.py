@@ -23,37 +23,12 @@ from protocol.messages import (
 )
 from protocol.transport import Transport
 
-from .launch import free_port, launch
+from .launch import free_port, launch, simulated_config
 from .rigclient import RigClient, RigError
 
-__all__ = ["demo_config", "run_demo", "run_station"]
+__all__ = ["run_demo", "run_station"]
 
 RIG = "demo"
-
-
-def demo_config(archive: Path, port: int, time_scale: float, seed: int) -> str:
-    return f"""\
-rig = "{RIG}"
-archive = "{archive}"
-ptu = "pty://?model=D46-17&time_scale={time_scale:g}"
-
-[camera]
-url = "sim://outcrop?seed={seed}&hfov=30"
-
-[zenoh]
-mode = "peer"
-listen = ["tcp/127.0.0.1:{port}"]
-
-[frames]
-rate = 5
-
-[survey]
-rows = 2
-cols = 3
-downsample = 4
-approach = [300, 60, 10]
-simulate_approach = true
-"""
 
 
 async def run_station(
@@ -85,7 +60,17 @@ async def _demo(out: Path, time_scale: float, seed: int) -> int:
     archive = (out / "archive").resolve()
     port = free_port()
     config = out / "cyborgd.toml"
-    config.write_text(demo_config(archive, port, time_scale, seed))
+    config.write_text(
+        simulated_config(
+            RIG,
+            archive,
+            listen=[f"tcp/127.0.0.1:{port}"],
+            time_scale=time_scale,
+            seed=seed,
+            frame_rate=5,
+            survey={"approach": [300, 60, 10], "simulate_approach": True},
+        )
+    )
     t0 = time.perf_counter()
     async with launch(["--config", str(config)], out / "cyborgd.log") as daemon:
         print(f"cyborgd running (pid {daemon.pid}), PTU emulator on a pty, simulated camera")

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-__all__ = ["Daemon", "free_port", "launch", "spawn"]
+__all__ = ["Daemon", "free_port", "launch", "simulated_config", "spawn"]
 
 
 def free_port() -> int:
@@ -26,6 +26,39 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+def simulated_config(
+    rig: str,
+    archive: Path,
+    *,
+    listen: Sequence[str] = (),
+    connect: Sequence[str] = (),
+    time_scale: float = 1.0,
+    ptu_query: str = "",
+    seed: int = 3,
+    frame_rate: float = 10.0,
+    survey: dict[str, Any] | None = None,
+) -> str:
+    """A ``cyborgd.toml`` for a simulated rig: the PTU-46 emulator on a pty behind the
+    real serial driver, and the simulated camera on the generated cliff ``seed``."""
+    mode = "client" if connect and not listen else "peer"
+    lines = [
+        f"rig = {json.dumps(rig)}",
+        f"archive = {json.dumps(str(archive))}",
+        f'ptu = "pty://?model=D46-17&time_scale={time_scale:g}{ptu_query}"',
+        "[camera]",
+        f'url = "sim://outcrop?seed={seed}&hfov=30"',
+        "[zenoh]",
+        f'mode = "{mode}"',
+        f"listen = {json.dumps(list(listen))}",
+        f"connect = {json.dumps(list(connect))}",
+        "[frames]",
+        f"rate = {frame_rate:g}",
+        "[survey]",
+        *(f"{k} = {json.dumps(v)}" for k, v in (survey or {}).items()),
+    ]
+    return "\n".join(lines) + "\n"
 
 
 @dataclass

@@ -34,7 +34,7 @@ from .analyze import analyse_into
 from .archive import Archive, Station
 from .camera import CameraError, Frame
 from .config import SurveyConfig
-from .ptu import PtuError, PtuLimitError
+from .ptu import PtuError, PtuLimitError, PtuPosition
 from .ptu.geometry import CameraModel, MosaicGeometry
 from .rig import Rig
 from .vision.params import PROFILES
@@ -297,6 +297,16 @@ class Survey:
             _LOGGER.error("station %s: cannot update the manifest: %s", station.name, exc)
         self._progress(status, 0, 0, None)
 
+    async def _settle_and_grab(self, timing: dict[str, float]) -> tuple[PtuPosition, Frame]:
+        """Wait for the head to stop (and the tripod to settle), then take a frame."""
+        position = await self.rig.settle()
+        if self.cfg.settle:
+            await asyncio.sleep(self.cfg.settle)
+        tg = time.perf_counter()
+        frame = await self.rig.grab()
+        timing["grab_s"] += time.perf_counter() - tg
+        return position, frame
+
     async def _acquire(
         self, station: Station, geometry: MosaicGeometry, timing: dict[str, float]
     ) -> np.ndarray:
@@ -317,12 +327,7 @@ class Survey:
                 if pending is not None:  # reduce, place and archive the last tile while moving
                     job, pending = pending, None
                     await asyncio.to_thread(place, job)
-                position = await self.rig.settle()
-                if self.cfg.settle:
-                    await asyncio.sleep(self.cfg.settle)
-                tg = time.perf_counter()
-                frame = await self.rig.grab()
-                timing["grab_s"] += time.perf_counter() - tg
+                position, frame = await self._settle_and_grab(timing)
                 pending = (row, col, frame, (position.pan, position.tilt))
                 per_tile = (time.perf_counter() - t0) / (k + 1)
                 eta = per_tile * (len(order) - k - 1 + CHIPS) + self._analysis_estimate
@@ -388,12 +393,7 @@ class Survey:
             self.rig.mark_moving()
             if saving is not None:
                 self.tel.chip(await saving)
-            position = await self.rig.settle()
-            if self.cfg.settle:
-                await asyncio.sleep(self.cfg.settle)
-            tg = time.perf_counter()
-            frame = await self.rig.grab()
-            timing["grab_s"] += time.perf_counter() - tg
+            position, frame = await self._settle_and_grab(timing)
             saving = asyncio.create_task(
                 asyncio.to_thread(
                     self._save_chip, station, point, (position.pan, position.tilt), frame

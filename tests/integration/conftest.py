@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from clients.launch import Daemon, spawn
+from clients.launch import Daemon, simulated_config, spawn
 from clients.rigclient import RigClient
 from protocol.transport import Transport
 
@@ -31,29 +31,6 @@ def router() -> Iterator[str]:
         session.close()
 
 
-def config_text(endpoint: str, archive: Path, ptu_query: str = "", **survey: object) -> str:
-    extra = "".join(f"{k} = {json.dumps(v)}\n" for k, v in survey.items())
-    return f"""\
-rig = "itest"
-archive = "{archive}"
-ptu = "pty://?model=D46-17&time_scale=8{ptu_query}"
-
-[camera]
-url = "sim://outcrop?seed=3&hfov=30"
-
-[zenoh]
-mode = "peer"
-connect = ["{endpoint}"]
-
-[frames]
-rate = 10
-
-[survey]
-approach = [300, 60, 10]
-simulate_approach = true
-{extra}"""
-
-
 @pytest.fixture
 async def start_daemon(router: str, tmp_path: Path) -> AsyncIterator:
     """Factory: start cyborgd with optional [survey] settings; all stopped at teardown."""
@@ -61,7 +38,16 @@ async def start_daemon(router: str, tmp_path: Path) -> AsyncIterator:
 
     async def start(ptu_query: str = "", **survey: object) -> Daemon:
         config = tmp_path / f"cyborgd{len(daemons)}.toml"
-        config.write_text(config_text(router, tmp_path / "archive", ptu_query, **survey))
+        config.write_text(
+            simulated_config(
+                "itest",
+                tmp_path / "archive",
+                connect=[router],
+                time_scale=8,
+                ptu_query=ptu_query,
+                survey={"approach": [300, 60, 10], "simulate_approach": True, **survey},
+            )
+        )
         daemon = await spawn(["--config", str(config)], tmp_path / "cyborgd.log")
         daemons.append(daemon)
         return daemon
