@@ -124,13 +124,7 @@ async def run(cfg: Config, ready_stream=sys.stdout) -> int:
     recovered = archive.open()
     async with contextlib.AsyncExitStack() as stack:
         bus = stack.enter_context(Bus.open(cfg.zenoh, cfg.keys))
-        service: _Service | None = None
-
-        def announce(level: str, text: str) -> None:
-            if service is not None:
-                service.event(level, text)
-
-        worker = VisionWorker(on_restart=lambda text: announce("warning", text))
+        worker = VisionWorker()
         worker.start()
         stack.callback(worker.close)
         ptu = open_ptu(cfg.ptu)
@@ -140,6 +134,7 @@ async def run(cfg: Config, ready_stream=sys.stdout) -> int:
         await stack.enter_async_context(camera)
         rig.note(await ptu.position())
         service = _Service(cfg, bus, rig)
+        worker.on_restart = lambda text: service.event("warning", text)
         hfov = camera.hfov or cfg.camera.hfov
         survey = Survey(
             rig,

@@ -200,4 +200,4 @@ class Archive:
 
 def _public(name: str) -> bool:
     """Hidden names are temporaries (atomic writes, partial analyses): never listed or served."""
-    return not name.startswith(".") and name != ".."
+    return not name.startswith(".")
