@@ -28,6 +28,7 @@ from protocol.messages import (
     PtuHalt,
     PtuHome,
     PtuJog,
+    PtuLook,
     ReleaseControl,
     Status,
     SurveyCancel,
@@ -39,6 +40,7 @@ from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 from .archive import Archive, ArchiveError
 from .ptu import PtuConnectionError, PtuError, PtuLimitError, PtuTimeoutError
+from .ptu.geometry import pixel_to_angles
 from .rig import Rig
 from .survey import Survey, SurveyBusyError
 from .worker import VisionWorker
@@ -50,6 +52,7 @@ _LOGGER = logging.getLogger(__name__)
 REQUESTS: dict[str, type[Message]] = {
     "ptu/goto": PtuGoto,
     "ptu/jog": PtuJog,
+    "ptu/look": PtuLook,
     "ptu/halt": PtuHalt,
     "ptu/home": PtuHome,
     "survey/start": SurveyStart,
@@ -67,7 +70,15 @@ REQUESTS: dict[str, type[Message]] = {
 _BUILD = importlib.metadata.version("cyborg-astrobiologist")
 
 MOTION = frozenset(
-    {"ptu/goto", "ptu/jog", "ptu/home", "survey/start", "survey/cancel", "target/choose"}
+    {
+        "ptu/goto",
+        "ptu/jog",
+        "ptu/look",
+        "ptu/home",
+        "survey/start",
+        "survey/cancel",
+        "target/choose",
+    }
 )
 
 
@@ -92,6 +103,7 @@ class Commands:
         self._handlers: dict[str, Callable[[Any, str], Awaitable[Message]]] = {
             "ptu/goto": self._goto,
             "ptu/jog": self._jog,
+            "ptu/look": self._look,
             "ptu/halt": self._halt,
             "ptu/home": self._home,
             "survey/start": self._survey_start,
@@ -166,6 +178,20 @@ class Commands:
         await self.rig.ptu.move_to(here.pan + msg.pan, here.tilt + msg.tilt, wait=False)
         self.rig.mark_moving()
         return Ack("OK", f"jogging by {msg.pan:+.3f}, {msg.tilt:+.3f}")
+
+    async def _look(self, msg: PtuLook, src: str) -> Message:
+        self._idle("ptu/look")
+        if msg.station:
+            geometry = await asyncio.to_thread(self.survey.geometry_of, msg.station)
+            width, height = geometry.size
+            pan, tilt = geometry.to_angles(msg.u * width, msg.v * height)
+        else:
+            cam = self.survey.live_camera()
+            a, b = pixel_to_angles(msg.u * cam.width, msg.v * cam.height, msg.pan, msg.tilt, cam)
+            pan, tilt = float(a), float(b)
+        await self.rig.ptu.move_to(pan, tilt, wait=False)
+        self.rig.mark_moving()
+        return Ack("OK", f"looking at pan {pan:.3f}, tilt {tilt:.3f}")
 
     async def _home(self, msg: PtuHome, src: str) -> Message:
         self._idle("ptu/home")

@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import functools
+import json
 import logging
 import time
 from collections.abc import Callable
@@ -31,7 +32,7 @@ from protocol.messages import (
 )
 
 from .analyze import analyse_into
-from .archive import Archive, Station
+from .archive import MANIFEST, Archive, ArchiveError, Station
 from .camera import CameraError, Frame
 from .config import SurveyConfig
 from .ptu import PtuError, PtuLimitError, PtuPosition
@@ -164,9 +165,9 @@ class Survey:
         here = self.rig.pose
         pan0 = req.pan0 if req.pan0 is not None else (ap.aim[0] if ap.aim else here.pan)
         tilt0 = req.tilt0 if req.tilt0 is not None else (ap.aim[1] if ap.aim else here.tilt)
-        width, height = self.rig.camera.resolution
-        camera = CameraModel(width, height, self.hfov).zoomed(self._magnification())
-        geometry = MosaicGeometry(camera, req.rows, req.cols, pan0, tilt0, req.downsample)
+        geometry = MosaicGeometry(
+            self.live_camera(), req.rows, req.cols, pan0, tilt0, req.downsample
+        )
         info = self.rig.ptu.info
         for r, c in geometry.serpentine():
             pan, tilt = geometry.tile_pose(r, c)
@@ -181,6 +182,28 @@ class Survey:
                     f"tilt {info.tilt.min_deg:.1f}..{info.tilt.max_deg:.1f})",
                 )
         return geometry
+
+    def live_camera(self) -> CameraModel:
+        """The camera's optics as they are now (a simulated approach magnifies them)."""
+        width, height = self.rig.camera.resolution
+        return CameraModel(width, height, self.hfov).zoomed(self._magnification())
+
+    def geometry_of(self, station_id: str) -> MosaicGeometry:
+        """How a station's mosaic maps to angles, from its archived plan."""
+        session, _, name = station_id.partition("/")
+        try:
+            plan = json.loads(self.archive.read(session, f"{name}/{MANIFEST}", 1 << 20))["plan"]
+            cam = plan["camera"]
+            return MosaicGeometry(
+                CameraModel(cam["width"], cam["height"], cam["hfov"]),
+                plan["rows"],
+                plan["cols"],
+                plan["pan0"],
+                plan["tilt0"],
+                plan["downsample"],
+            )
+        except (ValueError, KeyError, TypeError) as exc:
+            raise ArchiveError(f"station {station_id}: no usable plan ({exc})") from None
 
     def _magnification(self) -> float:
         if not self.cfg.simulate_approach:

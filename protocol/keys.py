@@ -16,6 +16,7 @@ _NAME = re.compile(r"[A-Za-z0-9_-]{1,64}\Z")
 COMMANDS = (
     "ptu/goto",
     "ptu/jog",
+    "ptu/look",
     "ptu/halt",
     "ptu/home",
     "survey/start",

@@ -36,6 +36,7 @@ __all__ = [
     "PtuHalt",
     "PtuHome",
     "PtuJog",
+    "PtuLook",
     "PtuState",
     "ReleaseControl",
     "Status",
@@ -153,6 +154,31 @@ class PtuJog(Message):
     def __post_init__(self) -> None:
         _in("pan", self.pan, -90.0, 90.0)
         _in("tilt", self.tilt, -90.0, 90.0)
+
+
+@dataclass(frozen=True)
+class PtuLook(Message):
+    """Point at what a clicked pixel shows; the rig does the geometry, so clients need no
+    camera model.
+
+    ``u``, ``v`` are fractions of the image's width and height (0..1, from the top left),
+    so any display size works. With ``station`` empty the image is a live frame taken at
+    (``pan``, ``tilt``), the pose in its :class:`FrameHeader`; otherwise it is that
+    station's mosaic.
+    """
+
+    KIND: ClassVar[str] = "ptu.look"
+    u: float
+    v: float
+    station: str = ""
+    pan: float | None = None
+    tilt: float | None = None
+
+    def __post_init__(self) -> None:
+        _in("u", self.u, 0.0, 1.0)
+        _in("v", self.v, 0.0, 1.0)
+        if not self.station and (self.pan is None or self.tilt is None):
+            raise ValueError("a live-frame look needs the frame's pan and tilt")
 
 
 @dataclass(frozen=True)
@@ -374,6 +400,7 @@ MESSAGES: dict[str, type[Message]] = {
     for m in (
         PtuGoto,
         PtuJog,
+        PtuLook,
         PtuHalt,
         PtuHome,
         SurveyStart,

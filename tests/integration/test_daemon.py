@@ -28,6 +28,7 @@ from protocol.messages import (
     Hello,
     PtuGoto,
     PtuHalt,
+    PtuLook,
     PtuState,
     ReleaseControl,
     Status,
@@ -121,6 +122,23 @@ async def test_full_survey_over_the_bus(daemon, client: RigClient, tmp_path: Pat
     for bad in ("../../etc/passwd", f"{station}/manifest.json/..", "nope.png", ".hidden"):
         reply = await client.call("archive/get", ArchiveGet(session, bad))
         assert isinstance(reply, Ack) and reply.result == "REJECTED"
+
+    # Clicks: a mosaic pixel re-points at what it shows; a live pixel too, from its frame's pose.
+    states = client.subscribe(client.keys.ptu_state)
+    best = result.points[0]
+    await client.command(
+        "ptu/look",  # point x, y index pixels; their centres are at +0.5
+        PtuLook((best.x + 0.5) / result.width, (best.y + 0.5) / result.height, result.station),
+    )
+    await asyncio.sleep(0.3)
+    here = await _state(client, states)
+    assert (here.pan, here.tilt) == pytest.approx((best.pan, best.tilt), abs=0.06)
+    await client.command("ptu/look", PtuLook(1.0, 0.5, pan=0.0, tilt=0.0))
+    await asyncio.sleep(0.3)
+    here = await _state(client, states)
+    assert (here.pan, here.tilt) == pytest.approx((15.0, 0.0), abs=0.06)  # the edge of 30 deg
+    reply = await client.call("ptu/look", PtuLook(0.5, 0.5, f"{session}/st99-1m"))
+    assert isinstance(reply, Ack) and reply.result == "REJECTED" and "st99" in reply.detail
 
     # The approach loop: choosing target 1 aims the next station at it, 60 m away.
     ack = await client.command("target/choose", ChooseTarget(result.station, 1))
