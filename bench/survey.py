@@ -23,9 +23,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from clients.demo import run_station
 from clients.launch import free_port, launch, simulated_config
-from clients.rigclient import RigClient
+from clients.rigclient import RigClient, run_station
 from protocol.messages import SurveyStart, TakeControl
 from protocol.transport import Transport
 

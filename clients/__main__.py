@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from . import cli
 from .demo import run_demo
 
 
@@ -16,8 +17,10 @@ def main(argv: list[str] | None = None) -> int:
     demo.add_argument("--out", type=Path, default=Path("out/demo"))
     demo.add_argument("--time-scale", type=float, default=4.0, help="PTU emulator speed-up")
     demo.add_argument("--seed", type=int, default=3, help="which generated cliff")
+    demo.set_defaults(run=lambda a: run_demo(a.out, a.time_scale, a.seed))
+    cli.register(sub)
     args = parser.parse_args(argv)
-    return run_demo(args.out, args.time_scale, args.seed)
+    return args.run(args)
 
 
 if __name__ == "__main__":

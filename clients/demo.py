@@ -16,43 +16,17 @@ from pathlib import Path
 
 from protocol.messages import (
     ChooseTarget,
-    InterestResult,
-    SurveyProgress,
     SurveyStart,
     TakeControl,
 )
 from protocol.transport import Transport
 
 from .launch import free_port, launch, simulated_config
-from .rigclient import RigClient, RigError
+from .rigclient import RigClient, RigError, run_station
 
-__all__ = ["run_demo", "run_station"]
+__all__ = ["run_demo"]
 
 RIG = "demo"
-
-
-async def run_station(
-    client: RigClient,
-    progress: asyncio.Queue,
-    results: asyncio.Queue,
-    request: SurveyStart,
-    timeout: float = 120.0,
-) -> InterestResult:
-    """Start a survey and follow it to its result; raise RigError if it fails."""
-    station = (await client.command("survey/start", request)).detail
-    async with asyncio.timeout(timeout):
-        while True:
-            p: SurveyProgress = await progress.get()
-            if p.station != station:
-                continue
-            if p.stage in ("failed", "incomplete"):
-                raise RigError(f"station {station} {p.stage}")
-            if p.stage == "done":
-                break
-        while True:
-            result: InterestResult = await results.get()
-            if result.station == station:
-                return result
 
 
 async def _demo(out: Path, time_scale: float, seed: int) -> int:

@@ -11,18 +11,40 @@ import asyncio
 import contextlib
 import itertools
 import uuid
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from typing import TypeVar
 
 import zenoh
 
 from protocol.envelope import decode, encode
 from protocol.errors import ProtocolError
 from protocol.keys import Keys
-from protocol.messages import Ack, FrameHeader, Message, message_from
+from protocol.messages import (
+    Ack,
+    FrameHeader,
+    InterestResult,
+    Message,
+    Status,
+    SurveyProgress,
+    SurveyStart,
+    SurveyStatus,
+    TakeControl,
+    message_from,
+)
 from protocol.transport import Transport
 
-__all__ = ["LiveFrame", "RigClient", "RigError", "RigUnavailableError"]
+M = TypeVar("M", bound=Message)
+
+__all__ = [
+    "ControlHeldError",
+    "LiveFrame",
+    "RigClient",
+    "RigError",
+    "RigRefusedError",
+    "RigUnavailableError",
+    "run_station",
+]
 
 
 class RigError(RuntimeError):
@@ -31,6 +53,22 @@ class RigError(RuntimeError):
 
 class RigUnavailableError(RigError):
     """Nobody answered: the daemon is down or unreachable."""
+
+
+class RigRefusedError(RigError):
+    """The rig answered a command with a non-OK ack."""
+
+    def __init__(self, command: str, ack: Ack) -> None:
+        super().__init__(f"{command}: {ack.result}: {ack.detail}")
+        self.ack = ack
+
+
+class ControlHeldError(RigError):
+    """Another client holds control; taking it over must be asked for."""
+
+    def __init__(self, holder: str) -> None:
+        super().__init__(f"control is held by {holder}")
+        self.holder = holder
 
 
 @dataclass(frozen=True)
@@ -102,12 +140,27 @@ class RigClient:
 
     async def command(self, command: str, msg: Message, timeout: float = 10.0) -> Ack:
         """A command whose answer is an Ack; a non-OK Ack raises RigError with its detail."""
+        return await self.typed(command, msg, Ack, timeout)
+
+    async def typed(self, command: str, msg: Message, kind: type[M], timeout: float = 10.0) -> M:
+        """A command answered with a ``kind`` message; a non-OK ack raises RigRefusedError."""
         reply = await self.call(command, msg, timeout)
-        if not isinstance(reply, Ack):
-            raise RigError(f"{command}: expected an ack, got {reply.KIND}")
-        if not reply.ok:
-            raise RigError(f"{command}: {reply.result}: {reply.detail}")
+        if isinstance(reply, Ack) and not reply.ok:
+            raise RigRefusedError(command, reply)
+        if not isinstance(reply, kind):
+            raise RigError(f"{command}: expected {kind.KIND}, got {reply.KIND}")
         return reply
+
+    async def ensure_control(self, take_over: bool = False) -> bool:
+        """Hold control before a motion command: take it when nobody holds it, or from
+        another client only with ``take_over`` (never silently). True if it was taken."""
+        status = await self.typed("survey/status", SurveyStatus(), Status)
+        if status.controller == self.name:
+            return False
+        if status.controller and not take_over:
+            raise ControlHeldError(status.controller)
+        await self.command("control/take", TakeControl(self.name))
+        return True
 
     # -- telemetry ---------------------------------------------------------------------
 
@@ -138,13 +191,20 @@ class RigClient:
 
     def frames(self, maxsize: int = 1) -> asyncio.Queue[LiveFrame]:
         """Live frames, latest wins: a slow consumer sees fresh frames, never a backlog."""
-        loop = asyncio.get_running_loop()
         queue: asyncio.Queue[LiveFrame] = asyncio.Queue()
 
         def push(frame: LiveFrame) -> None:
             while queue.qsize() >= maxsize:
                 queue.get_nowait()
             queue.put_nowait(frame)
+
+        self._entities.append(self.frame_subscriber(push))
+        return queue
+
+    def frame_subscriber(self, on_frame: Callable[[LiveFrame], None]) -> zenoh.Subscriber:
+        """Call ``on_frame`` on the loop with each live frame until the returned subscriber
+        is undeclared; the daemon grabs frames only while somebody subscribes."""
+        loop = asyncio.get_running_loop()
 
         def on_sample(sample: zenoh.Sample) -> None:
             if sample.attachment is None:
@@ -156,14 +216,11 @@ class RigClient:
                 return
             frame = LiveFrame(sample.payload.to_bytes(), header, env.ts)
             with contextlib.suppress(RuntimeError):
-                loop.call_soon_threadsafe(push, frame)
+                loop.call_soon_threadsafe(on_frame, frame)
 
-        self._entities.append(
-            self.session.declare_subscriber(
-                self.keys.frame, zenoh.handlers.Callback(on_sample, indirect=False)
-            )
+        return self.session.declare_subscriber(
+            self.keys.frame, zenoh.handlers.Callback(on_sample, indirect=False)
         )
-        return queue
 
     async def wait_alive(self, timeout: float = 10.0) -> None:
         """Return once the rig's liveliness token is visible (its commands are declared
@@ -195,3 +252,35 @@ class RigClient:
             )
         )
         return queue
+
+
+async def run_station(
+    client: RigClient,
+    progress: asyncio.Queue,
+    results: asyncio.Queue,
+    request: SurveyStart,
+    *,
+    timeout: float = 300.0,
+    on_progress: Callable[[SurveyProgress], None] | None = None,
+) -> InterestResult:
+    """Start a survey and follow it to its result; raise RigError if it fails.
+
+    ``progress`` and ``results`` are subscriptions made before the start, so nothing
+    published in between is missed.
+    """
+    station = (await client.command("survey/start", request)).detail
+    async with asyncio.timeout(timeout):
+        while True:
+            p: SurveyProgress = await progress.get()
+            if p.station != station:
+                continue
+            if on_progress is not None:
+                on_progress(p)
+            if p.stage in ("failed", "incomplete"):
+                raise RigError(f"station {station} {p.stage}")
+            if p.stage == "done":
+                break
+        while True:
+            result: InterestResult = await results.get()
+            if result.station == station:
+                return result

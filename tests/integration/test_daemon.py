@@ -13,8 +13,7 @@ import msgpack
 import numpy as np
 import pytest
 
-from clients.demo import run_station
-from clients.rigclient import RigClient, RigError
+from clients.rigclient import RigClient, RigError, run_station
 from daemon.camera.simulated import outcrop_panorama
 from protocol.envelope import encode
 from protocol.messages import (

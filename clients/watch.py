@@ -1,0 +1,177 @@
+"""What a client knows of one rig, folded from its telemetry into one state.
+
+The keypad's screen and the operator's page are both views of a :class:`RigView`:
+liveliness, the PTU, the survey's status and progress, the latest result with its
+chips, and a short log of events and command outcomes. :class:`RigWatch` keeps it
+current and wakes the view after each change; views coalesce bursts themselves.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import time
+from collections import deque
+from collections.abc import AsyncIterator
+from dataclasses import dataclass, field
+
+from protocol.messages import (
+    Chip,
+    Event,
+    InterestResult,
+    Message,
+    PtuState,
+    Status,
+    SurveyProgress,
+    SurveyStatus,
+)
+
+from .rigclient import RigClient, RigError
+
+__all__ = ["LogLine", "RigView", "RigWatch"]
+
+STATUS_PERIOD = 5.0
+"""Seconds between status refreshes when nothing else prompts one."""
+
+
+@dataclass(frozen=True)
+class LogLine:
+    at: float
+    """Wall-clock seconds."""
+    level: str
+    """info, warning, error (from the rig) or ok, refused (a command's outcome)."""
+    text: str
+
+
+@dataclass
+class RigView:
+    alive: bool | None = None
+    """None until the bus has said either way."""
+    ptu: PtuState | None = None
+    status: Status | None = None
+    progress: SurveyProgress | None = None
+    progress_at: float = 0.0
+    """Monotonic time the progress arrived (its ETA counts down from there)."""
+    result: InterestResult | None = None
+    chips: dict[int, Chip] = field(default_factory=dict)
+    log: deque[LogLine] = field(default_factory=lambda: deque(maxlen=100))
+
+    @property
+    def controller(self) -> str:
+        if self.ptu is not None:
+            return self.ptu.controller
+        return self.status.controller if self.status else ""
+
+    def eta(self) -> float | None:
+        """Seconds left in the running station, counted down since the last progress."""
+        p = self.progress
+        if p is None or p.eta_s is None or p.stage in ("done", "failed", "incomplete"):
+            return None
+        return max(0.0, p.eta_s - (time.monotonic() - self.progress_at))
+
+
+class RigWatch:
+    def __init__(self, client: RigClient) -> None:
+        self.client = client
+        self.view = RigView()
+        self.version = 0
+        self._changed = asyncio.Event()
+        self._refresh = asyncio.Event()
+
+    def note(self, level: str, text: str) -> None:
+        """Add a line to the log (command outcomes, client-side errors)."""
+        self.view.log.append(LogLine(time.time(), level, text))
+        self._bump()
+
+    def refresh(self) -> None:
+        """Ask for a status update soon (after a command that changes the rig's state)."""
+        self._refresh.set()
+
+    async def changes(self) -> AsyncIterator[int]:
+        """Yield the version after each change; bursts coalesce into one wake-up."""
+        seen = -1
+        while True:
+            if self.version == seen:
+                self._changed.clear()
+                await self._changed.wait()
+            seen = self.version
+            yield seen
+
+    async def run(self) -> None:
+        """Follow the rig until cancelled; survives the daemon leaving and coming back."""
+        c = self.client
+        feeds = [
+            c.subscribe(c.keys.ptu_state, maxsize=1),
+            c.subscribe(c.keys.progress),
+            c.subscribe(c.keys.result),
+            c.subscribe(c.keys.chip, maxsize=3),
+            c.subscribe(c.keys.events),
+        ]
+        alive = c.alive()
+        async with asyncio.TaskGroup() as tg:
+            for feed in feeds:
+                tg.create_task(self._follow(feed))
+            tg.create_task(self._liveliness(alive))
+            tg.create_task(self._statuses())
+
+    async def _follow(self, feed: asyncio.Queue[Message]) -> None:
+        while True:
+            self.apply(await feed.get())
+
+    async def _liveliness(self, alive: asyncio.Queue[bool]) -> None:
+        while True:
+            up = await alive.get()
+            if up != self.view.alive:
+                self.view.alive = up
+                if self.view.log or not up:
+                    self.note("info" if up else "error", "rig is up" if up else "rig went away")
+                self._bump()
+            if up:
+                self.refresh()
+
+    async def _statuses(self) -> None:
+        while True:
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._refresh.wait(), STATUS_PERIOD)
+            self._refresh.clear()
+            if self.view.alive is False:
+                continue
+            try:
+                reply = await self.client.call("survey/status", SurveyStatus(), timeout=2.0)
+            except RigError:
+                continue
+            if isinstance(reply, Status):
+                self.apply(reply)
+
+    def apply(self, msg: Message) -> None:
+        v = self.view
+        if isinstance(msg, PtuState):
+            v.ptu = msg
+        elif isinstance(msg, Status):
+            v.status = msg
+        elif isinstance(msg, SurveyProgress):
+            if v.progress is None or (v.progress.station, v.progress.stage) != (
+                msg.station,
+                msg.stage,
+            ):
+                self.refresh()
+            v.progress, v.progress_at = msg, time.monotonic()
+            if msg.stage in ("failed", "incomplete"):
+                self.note("error", f"station {msg.station} {msg.stage}")
+        elif isinstance(msg, InterestResult | Chip):
+            # Chips come before their station's result; either one starts a new station.
+            if any(chip.station != msg.station for chip in v.chips.values()):
+                v.chips = {}
+            if isinstance(msg, Chip):
+                v.chips[msg.rank] = msg
+            else:
+                v.result = msg
+        elif isinstance(msg, Event):
+            v.log.append(LogLine(time.time(), msg.level, msg.text))
+        else:
+            return
+        self._bump()
+
+    def _bump(self) -> None:
+        self.version += 1
+        self._changed.set()
