@@ -8,6 +8,8 @@ from pathlib import Path
 
 from . import cli
 from .demo import run_demo
+from .keypad.app import run_keypad
+from .link import add_link_arguments
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -18,6 +20,11 @@ def main(argv: list[str] | None = None) -> int:
     demo.add_argument("--time-scale", type=float, default=4.0, help="PTU emulator speed-up")
     demo.add_argument("--seed", type=int, default=3, help="which generated cliff")
     demo.set_defaults(run=lambda a: run_demo(a.out, a.time_scale, a.seed))
+    keypad = sub.add_parser(
+        "keypad", help="full-screen client for the arm's keyboard and head-mounted display"
+    )
+    add_link_arguments(keypad, "keypad")
+    keypad.set_defaults(run=run_keypad)
     cli.register(sub)
     args = parser.parse_args(argv)
     return args.run(args)

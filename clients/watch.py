@@ -132,7 +132,8 @@ class RigWatch:
     async def _statuses(self) -> None:
         while True:
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._refresh.wait(), STATUS_PERIOD)
+                async with asyncio.timeout(STATUS_PERIOD):  # not wait_for: see keypad._paint
+                    await self._refresh.wait()
             self._refresh.clear()
             if self.view.alive is False:
                 continue
