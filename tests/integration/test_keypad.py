@@ -177,7 +177,7 @@ async def test_keypad_survives_the_daemon_going_away(keypad: Terminal, start_dae
     await keypad.wait_for("● UP")
     await keypad.wait_pose(0.0)  # a new emulator, back home
     keypad.press(RIGHT)  # control lived in the old daemon: the new one is taken again
-    await keypad.wait_for("rig is up\n.*took control.*\n.*jog: jogging")
+    await keypad.wait_for("rig is up.*\n.*took control.*\n.*jog: jogging")
     await keypad.wait_pose(2.0)
     keypad.press(b"q")
     assert await keypad.exit_status() == 0
