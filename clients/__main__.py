@@ -10,6 +10,7 @@ from . import cli
 from .demo import run_demo
 from .keypad.app import run_keypad
 from .link import add_link_arguments
+from .operator.main import run_operator
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -25,6 +26,13 @@ def main(argv: list[str] | None = None) -> int:
     )
     add_link_arguments(keypad, "keypad")
     keypad.set_defaults(run=run_keypad)
+    operator = sub.add_parser(
+        "operator", help="the remote operator's web console, served on 127.0.0.1"
+    )
+    add_link_arguments(operator, "operator")
+    operator.add_argument("--host", default="127.0.0.1", help="address the page listens on")
+    operator.add_argument("--port", type=int, default=8080, help="its port (0: any free one)")
+    operator.set_defaults(run=run_operator)
     cli.register(sub)
     args = parser.parse_args(argv)
     return args.run(args)

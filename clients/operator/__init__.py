@@ -1,0 +1,1 @@
+"""``cyborg operator``: the remote operator's web console (aiohttp, no front-end build)."""

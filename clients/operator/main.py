@@ -1,0 +1,53 @@
+"""``cyborg operator``'s process: the bus session, the page server, clean shutdown."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import signal
+
+from aiohttp import web
+
+from ..link import transport
+from ..rigclient import RigClient
+from .server import Operator
+
+__all__ = ["run_operator"]
+
+
+async def _serve(args: argparse.Namespace) -> int:
+    link = transport(args, "peer")
+    with RigClient.open(link, args.rig, args.name) as client:
+        operator = Operator(client)
+        runner = web.AppRunner(operator.app(), access_log=None)
+        await runner.setup()
+        try:
+            site = web.TCPSite(runner, args.host, args.port)
+            await site.start()
+        except OSError as exc:
+            await runner.cleanup()
+            print(f"cyborg operator: cannot listen on {args.host}:{args.port}: {exc.strerror}")
+            return 1
+        host, port = runner.addresses[0][:2]
+        print(
+            f"cyborg operator: http://{host}:{port}/  (rig {args.rig} via "
+            f"{', '.join(link.connect)}; Ctrl-C to stop)",
+            flush=True,
+        )
+        stop = asyncio.Event()
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, stop.set)
+        tasks = [asyncio.create_task(operator.watch.run()), asyncio.create_task(operator.changes())]
+        await stop.wait()
+        for task in tasks:
+            task.cancel()
+        await asyncio.gather(*tasks, return_exceptions=True)
+        with contextlib.suppress(Exception):
+            await runner.cleanup()
+    return 0
+
+
+def run_operator(args: argparse.Namespace) -> int:
+    return asyncio.run(_serve(args))

@@ -1,0 +1,277 @@
+"""``cyborg operator``: the remote operator's console, a local web page served by aiohttp.
+
+One process per operator: it joins the rig's bus (usually through a zenoh router), folds
+the telemetry with :class:`~clients.watch.RigWatch` and serves a page on 127.0.0.1. The
+page gets the state as JSON and the live view as binary frames over one WebSocket.
+
+Frames are latest-wins end to end: each page has one slot that a new frame overwrites,
+and the next frame leaves only when the page has acknowledged the last one. A slow
+browser or link sees fewer, fresh frames; no queue grows anywhere. The frame subscription
+itself exists only while a page is open, so the daemon grabs frames only when watched.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import mimetypes
+import struct
+import time
+from collections import OrderedDict
+from collections.abc import Awaitable, Callable
+from pathlib import Path
+from typing import Any
+
+from aiohttp import WSMsgType, web
+
+from protocol.messages import (
+    Ack,
+    ArchiveData,
+    ArchiveGet,
+    ArchiveList,
+    ArchiveListing,
+    ChooseTarget,
+    PtuGoto,
+    PtuHalt,
+    PtuHome,
+    PtuJog,
+    PtuLook,
+    ReleaseControl,
+    SurveyCancel,
+    SurveyStart,
+    TakeControl,
+)
+
+from ..rigclient import (
+    ControlHeldError,
+    LiveFrame,
+    RigClient,
+    RigError,
+    RigRefusedError,
+    RigUnavailableError,
+)
+from ..watch import RigWatch
+
+__all__ = ["Operator"]
+
+STATIC = Path(__file__).parent / "static"
+CACHE_BYTES = 64 << 20
+"""Archived products are immutable once listed; keep the recent ones near the page."""
+
+
+class _Page:
+    """One open page: a latest-frame slot and a flag for new state."""
+
+    def __init__(self, ws: web.WebSocketResponse) -> None:
+        self.ws = ws
+        self.frame: LiveFrame | None = None
+        self.acked = True
+        self.wake = asyncio.Event()
+
+
+class Operator:
+    def __init__(self, client: RigClient) -> None:
+        self.client = client
+        self.watch = RigWatch(client)
+        self._pages: set[_Page] = set()
+        self._frames: Any = None  # the zenoh subscriber while a page is open
+        self._cache: OrderedDict[str, bytes] = OrderedDict()
+        self._cached = 0
+        self._commands: dict[str, Callable[[dict], Awaitable[Ack]]] = {
+            "halt": lambda b: self.client.command("ptu/halt", PtuHalt()),
+            "home": lambda b: self.client.command("ptu/home", PtuHome()),
+            "goto": lambda b: self.client.command("ptu/goto", PtuGoto(b["pan"], b["tilt"])),
+            "jog": lambda b: self.client.command("ptu/jog", PtuJog(b["pan"], b["tilt"])),
+            "look": lambda b: self.client.command(
+                "ptu/look",
+                PtuLook(b["u"], b["v"], b.get("station", ""), b.get("pan"), b.get("tilt")),
+            ),
+            "survey": lambda b: self.client.command("survey/start", SurveyStart()),
+            "cancel": lambda b: self.client.command("survey/cancel", SurveyCancel()),
+            "choose": lambda b: self.client.command(
+                "target/choose", ChooseTarget(b["station"], b["rank"])
+            ),
+            "take": lambda b: self.client.command("control/take", TakeControl(self.client.name)),
+            "release": lambda b: self.client.command(
+                "control/release", ReleaseControl(self.client.name)
+            ),
+        }
+
+    def app(self) -> web.Application:
+        app = web.Application(client_max_size=1 << 16)
+        app.add_routes(
+            [
+                web.get("/", self._index),
+                web.static("/static", STATIC),
+                web.get("/ws", self._socket),
+                web.post("/api/{command}", self._command),
+                web.get("/api/archive", self._archive),
+                web.get("/api/archive/{session}", self._archive),
+                web.get("/archive/{session}/{product:.+}", self._product),
+            ]
+        )
+        return app
+
+    # -- page and state ------------------------------------------------------------------
+
+    async def _index(self, request: web.Request) -> web.FileResponse:
+        return web.FileResponse(STATIC / "index.html")
+
+    def state(self) -> dict[str, Any]:
+        v = self.watch.view
+        body = {
+            "me": self.client.name,
+            "rig": self.client.keys.rig,
+            "alive": v.alive,
+            "ptu": v.ptu.to_body() if v.ptu else None,
+            "status": v.status.to_body() if v.status else None,
+            "progress": v.progress.to_body() | {"eta": v.eta()} if v.progress else None,
+            "result": v.result.to_body() if v.result else None,
+            "chips": [
+                {
+                    "rank": c.rank,
+                    "station": c.station,
+                    "product": c.product,
+                    "pan": c.pan,
+                    "tilt": c.tilt,
+                }
+                for c in sorted(v.chips.values(), key=lambda c: c.rank)
+            ],
+            "log": [{"at": e.at, "level": e.level, "text": e.text} for e in list(v.log)[-30:]],
+        }
+        return {"type": "state", **body}
+
+    async def _socket(self, request: web.Request) -> web.WebSocketResponse:
+        ws = web.WebSocketResponse(heartbeat=20.0, max_msg_size=1 << 16)
+        await ws.prepare(request)
+        page = _Page(ws)
+        self._pages.add(page)
+        if self._frames is None:
+            self._frames = self.client.frame_subscriber(self._on_frame)
+        sender = asyncio.create_task(self._send(page))
+        try:
+            async for msg in ws:
+                if msg.type != WSMsgType.TEXT:
+                    continue
+                with contextlib.suppress(ValueError, TypeError):
+                    if json.loads(msg.data).get("type") == "ack":
+                        page.acked = True
+                        page.wake.set()
+        finally:
+            sender.cancel()
+            self._pages.discard(page)
+            if not self._pages and self._frames is not None:
+                with contextlib.suppress(Exception):
+                    self._frames.undeclare()
+                self._frames = None
+        return ws
+
+    def _on_frame(self, frame: LiveFrame) -> None:
+        for page in self._pages:
+            page.frame = frame  # latest wins: an unsent frame is simply replaced
+            page.wake.set()
+
+    async def _send(self, page: _Page) -> None:
+        seen = -1
+        with contextlib.suppress(ConnectionError, RuntimeError):
+            while not page.ws.closed:
+                if self.watch.version != seen:
+                    seen = self.watch.version
+                    await page.ws.send_str(json.dumps(self.state()))
+                if page.frame is not None and page.acked:
+                    frame, page.frame, page.acked = page.frame, None, False
+                    await page.ws.send_bytes(_pack(frame))
+                page.wake.clear()
+                with contextlib.suppress(TimeoutError):
+                    async with asyncio.timeout(0.25):  # state changes are polled
+                        await page.wake.wait()
+
+    async def changes(self) -> None:
+        """Wake every page when the rig's state changes."""
+        async for _ in self.watch.changes():
+            for page in self._pages:
+                page.wake.set()
+
+    # -- commands ------------------------------------------------------------------------
+
+    async def _command(self, request: web.Request) -> web.Response:
+        name = request.match_info["command"]
+        send = self._commands.get(name)
+        if send is None:
+            return web.json_response({"ok": False, "error": f"no command {name!r}"}, status=404)
+        try:
+            body = await request.json() if request.can_read_body else {}
+            if not isinstance(body, dict):
+                raise ValueError("the body must be a JSON object")
+            if name not in ("halt", "take", "release") and await self.client.ensure_control():
+                self.watch.note("ok", "took control (nobody held it)")
+            ack = await send(body)
+        except ControlHeldError as exc:
+            return self._reply(name, False, "REJECTED", f"{exc}; press Take to take it over")
+        except RigRefusedError as exc:
+            return self._reply(name, False, exc.ack.result, exc.ack.detail)
+        except RigUnavailableError:
+            return self._reply(name, False, "UNAVAILABLE", "the rig does not answer")
+        except (RigError, ValueError, KeyError, TypeError) as exc:
+            return self._reply(name, False, "ERROR", f"bad request: {exc}")
+        finally:
+            self.watch.refresh()
+        return self._reply(name, True, ack.result, ack.detail)
+
+    def _reply(self, name: str, ok: bool, result: str, detail: str) -> web.Response:
+        self.watch.note("ok" if ok else "refused", f"{name}: {detail}")
+        return web.json_response({"ok": ok, "result": result, "detail": detail})
+
+    # -- archive -------------------------------------------------------------------------
+
+    async def _archive(self, request: web.Request) -> web.Response:
+        session = request.match_info.get("session", "")
+        try:
+            listing = await self.client.typed("archive/list", ArchiveList(session), ArchiveListing)
+        except RigError as exc:
+            return web.json_response({"ok": False, "error": str(exc)}, status=502)
+        return web.json_response({"ok": True, "session": session, "items": list(listing.items)})
+
+    async def _product(self, request: web.Request) -> web.Response:
+        session, product = request.match_info["session"], request.match_info["product"]
+        key = f"{session}/{product}"
+        data = self._cache.get(key)
+        if data is None:
+            try:
+                reply = await self.client.typed(
+                    "archive/get", ArchiveGet(session, product), ArchiveData
+                )
+            except RigRefusedError as exc:
+                raise web.HTTPNotFound(text=exc.ack.detail) from None
+            except RigError as exc:
+                raise web.HTTPBadGateway(text=str(exc)) from None
+            data = reply.data
+            if not product.endswith(".json"):  # manifests change; images do not
+                self._remember(key, data)
+        kind = mimetypes.guess_type(product)[0] or "application/octet-stream"
+        return web.Response(body=data, content_type=kind)
+
+    def _remember(self, key: str, data: bytes) -> None:
+        self._cache[key] = data
+        self._cached += len(data)
+        while self._cached > CACHE_BYTES and self._cache:
+            _, old = self._cache.popitem(last=False)
+            self._cached -= len(old)
+
+
+def _pack(frame: LiveFrame) -> bytes:
+    """A frame for the page: a 4-byte length, a JSON header, then the JPEG."""
+    h = frame.header
+    header = json.dumps(
+        {
+            "seq": h.seq,
+            "width": h.width,
+            "height": h.height,
+            "pan": h.pan,
+            "tilt": h.tilt,
+            "ts_ms": frame.ts / 1e6,
+            "relay_ms": time.time() * 1e3,
+        }
+    ).encode()
+    return struct.pack(">I", len(header)) + header + frame.jpeg

@@ -1,0 +1,157 @@
+"""``cyborg operator`` as a real process, its page in headless Chromium, a real daemon behind
+a router: live frames, a survey started from the page, clicks that re-point the head."""
+
+from __future__ import annotations
+
+import asyncio
+import re
+import sys
+from collections.abc import AsyncIterator
+from pathlib import Path
+
+import pytest
+
+from bench.browser import MISSING, Browser, chromium
+from clients.rigclient import RigClient
+from protocol.messages import PtuState, TakeControl
+
+pytestmark = [pytest.mark.timeout(240), pytest.mark.skipif(bool(MISSING), reason=MISSING or "")]
+
+
+@pytest.fixture
+async def operator(router: str, tmp_path: Path) -> AsyncIterator[str]:
+    """``cyborg operator`` on a free port; yields the page's URL."""
+    log = (tmp_path / "operator.log").open("wb")
+    proc = await asyncio.create_subprocess_exec(
+        sys.executable,
+        "-m",
+        "clients",
+        "operator",
+        "--port",
+        "0",
+        "--rig",
+        "itest",
+        "--connect",
+        router,
+        "--name",
+        "remote-op",
+        stdout=asyncio.subprocess.PIPE,
+        stderr=log,
+    )
+    line = (await asyncio.wait_for(proc.stdout.readline(), 30)).decode()
+    url = re.search(r"http://\S+", line)
+    assert url, line
+    yield url[0]
+    proc.terminate()
+    assert await asyncio.wait_for(proc.wait(), 15) == 0
+    log.close()
+    assert b"Traceback" not in (tmp_path / "operator.log").read_bytes()
+
+
+@pytest.fixture
+def browser() -> AsyncIterator[Browser]:
+    with chromium() as b:
+        yield b
+
+
+async def _still(states: asyncio.Queue[PtuState]) -> PtuState:
+    async with asyncio.timeout(20):
+        while True:
+            s = await states.get()
+            if not s.moving:
+                return s
+
+
+async def _drain(states: asyncio.Queue) -> None:
+    while not states.empty():
+        states.get_nowait()
+
+
+async def test_operator_page_surveys_and_repoints(
+    daemon, operator: str, browser: Browser, client: RigClient
+) -> None:
+    js = browser.js
+    wait = lambda expr, timeout=30.0: asyncio.to_thread(browser.wait, expr, timeout)  # noqa: E731
+    await asyncio.to_thread(browser.open, operator)
+    # A live frame is drawn and acknowledged; the state arrives.
+    await wait("window.cyborgStats().frames >= 3")
+    assert await asyncio.to_thread(js, "return document.getElementById('live').width;") == 720
+    await wait("document.getElementById('alive').textContent.includes('up')")
+
+    await client.wait_alive()
+    states = client.subscribe(client.keys.ptu_state, maxsize=1)
+
+    # A survey started from the page completes and shows its overlay and points.
+    await asyncio.to_thread(browser.click, "#survey")
+    await wait("document.querySelectorAll('#points tbody tr').length === 3", 120)
+    await wait("document.getElementById('mosaic').naturalWidth > 0")
+    src = await asyncio.to_thread(js, "return document.getElementById('mosaic').src;")
+    assert src.endswith("/analysis/overlay.png")
+    assert "control: you" in await asyncio.to_thread(
+        js, "return document.getElementById('control').textContent;"
+    )
+    await wait("document.querySelectorAll('#chips img').length === 3")
+    await wait("[...document.querySelectorAll('#chips img')].every(i => i.naturalWidth > 0)")
+    result = await asyncio.to_thread(js, "return window.cyborgState();")
+    best = result["points"][0]
+
+    # A click on the mosaic at the best point re-points the head there.
+    box = await asyncio.to_thread(
+        js,
+        "const r = document.getElementById('mosaic').getBoundingClientRect();"
+        "return [r.width, r.height];",
+    )
+    dx = ((best["x"] + 0.5) / result["width"] - 0.5) * box[0]
+    dy = ((best["y"] + 0.5) / result["height"] - 0.5) * box[1]
+    await _drain(states)
+    await asyncio.to_thread(browser.click, "#mosaic", dx, dy)
+    reply = await wait(
+        "document.getElementById('reply').textContent.startsWith('look') && "
+        "document.getElementById('reply').textContent"
+    )
+    assert reply.startswith("look: looking at"), reply
+    await asyncio.sleep(0.3)
+    here = await _still(states)
+    deg_per_css_px = 90.0 / box[0]  # 3 tiles of 30 deg across the image
+    assert abs(here.pan - best["pan"]) < deg_per_css_px + 0.06
+    assert abs(here.tilt - best["tilt"]) < deg_per_css_px + 0.06
+
+    # A click a quarter of the width right of the live view's centre turns the head by
+    # atan(0.5 tan 15 deg) = 7.63 deg (a pinhole with a 30 deg field of view).
+    await asyncio.sleep(0.5)  # a frame taken at the new pose is on the canvas
+    shown = await asyncio.to_thread(js, "return window.cyborgStats().last;")
+    width = await asyncio.to_thread(
+        js, "return document.getElementById('live').getBoundingClientRect().width;"
+    )
+    await _drain(states)
+    await asyncio.to_thread(browser.click, "#live", width / 4, 0)
+    await asyncio.sleep(0.3)
+    here = await _still(states)
+    assert here.pan - shown["pan"] == pytest.approx(7.63, abs=0.15)
+
+    # Halt from the page; the archive lists the session.
+    await asyncio.to_thread(browser.click, "#halt")
+    await wait("document.getElementById('reply').textContent.startsWith('halt: halted')")
+    session = result["station"].split("/")[0]
+    await asyncio.to_thread(browser.click, "#refresh")
+    await wait(f"document.getElementById('sessions').textContent.includes('{session}')")
+
+
+async def test_operator_refuses_plainly(
+    daemon, operator: str, browser: Browser, other_client
+) -> None:
+    await asyncio.to_thread(browser.open, operator)
+    await asyncio.to_thread(browser.wait, "window.cyborgStats().frames >= 1")
+    await other_client.wait_alive()
+    await other_client.command("control/take", TakeControl("intruder"))
+    reply = await asyncio.to_thread(
+        browser.js,
+        "return fetch('/api/goto', {method: 'POST', body: JSON.stringify({pan: 1, tilt: 1})})"
+        ".then(r => r.json());",
+    )
+    assert reply["ok"] is False and reply["result"] == "REJECTED" and "intruder" in reply["detail"]
+    bad = await asyncio.to_thread(
+        browser.js,
+        "return fetch('/api/goto', {method: 'POST', body: '{not json'}).then(r => r.json());",
+    )
+    assert bad["ok"] is False and bad["result"] == "ERROR"
