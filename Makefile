@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo test bench bench-quality bench-speed bench-ptu bench-survey bench-bus lint clean
+.PHONY: demo test bench bench-quality bench-speed bench-ptu bench-survey bench-bus bench-operator lint clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -23,7 +23,7 @@ test: $(STAMP)
 	$(PY) -m ruff check .
 	$(PY) -m pytest -q
 
-bench: bench-quality bench-speed bench-ptu bench-survey bench-bus
+bench: bench-quality bench-speed bench-ptu bench-survey bench-bus bench-operator
 
 bench-quality: $(STAMP)
 	$(PY) -m bench.quality --scenes 120
@@ -39,6 +39,10 @@ bench-survey: $(STAMP)
 
 bench-bus: $(STAMP)
 	$(PY) -m bench.bus
+
+# Needs headless Chromium: Debian's chromium and chromium-driver.
+bench-operator: $(STAMP)
+	$(PY) -m bench.operator
 
 lint: $(STAMP)
 	$(PY) -m ruff check .

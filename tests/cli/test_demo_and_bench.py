@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from bench import bus, ptu, quality, speed, survey
+from bench import browser, bus, operator, ptu, quality, speed, survey
 from daemon.demo import run_demo
 
 
@@ -61,3 +61,12 @@ def test_bus_benchmark_smoke(capsys):
     rows = json.loads(capsys.readouterr().out)
     assert [r["subscribers"] for r in rows] == [0, 1, 16]
     assert rows[2]["fps_per_subscriber"] > 5 and rows[2]["frames"]["median_ms"] > 0
+
+
+@pytest.mark.timeout(180)
+@pytest.mark.skipif(bool(browser.MISSING), reason=browser.MISSING or "")
+def test_operator_benchmark_smoke(capsys):
+    assert operator.main(["--seconds", "1", "--clicks", "2", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["frames"]["page_fps"] > 5 and out["frames"]["page"]["median_ms"] > 0
+    assert out["click_to_motion"]["page"]["median_ms"] > 0
