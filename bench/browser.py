@@ -75,11 +75,16 @@ class Browser:
     def wait(self, script: str, timeout: float = 30.0, *args: Any) -> Any:
         """Poll a JS expression until it is truthy; returns its value."""
         deadline = time.monotonic() + timeout
-        while not (value := self.js(f"return ({script});", *args)):
+        error = ""
+        while True:
+            try:  # a page still loading may not define what the script uses yet
+                if value := self.js(f"return ({script});", *args):
+                    return value
+            except RuntimeError as exc:
+                error = f" (last error: {exc})"
             if time.monotonic() > deadline:
-                raise TimeoutError(f"the page never satisfied {script}")
+                raise TimeoutError(f"the page never satisfied {script}{error}")
             time.sleep(0.05)
-        return value
 
     def click(self, selector: str, dx: float = 0.0, dy: float = 0.0) -> None:
         """A real pointer click at (dx, dy) CSS pixels from the element's centre."""

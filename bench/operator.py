@@ -18,70 +18,21 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import contextlib
 import json
-import re
 import sys
 import tempfile
 import time
-from collections.abc import AsyncIterator
 from pathlib import Path
-
-import zenoh
 
 from bench.browser import MISSING, Browser, chromium
 from bench.stats import latency
-from clients.launch import launch, simulated_config
+from clients.launch import launch, operator, router, simulated_config
 from clients.rigclient import LiveFrame, RigClient
 from protocol.messages import PtuLook, PtuState, TakeControl
 from protocol.transport import Transport
 
 FPS = 25
 RIG = "opbench"
-
-
-@contextlib.contextmanager
-def _router(port: int = 0):
-    cfg = zenoh.Config()
-    for key, value in Transport("router", listen=(f"tcp/127.0.0.1:{port}",)).json5_items():
-        cfg.insert_json5(key, value)
-    cfg.insert_json5("adminspace/enabled", "true")
-    session = zenoh.open(cfg)
-    try:
-        info = next(iter(session.get(f"@/{session.zid()}/router", timeout=5.0)))
-        yield json.loads(info.ok.payload.to_string())["locators"][0]
-    finally:
-        session.close()
-
-
-@contextlib.asynccontextmanager
-async def _operator(router: str, log: Path) -> AsyncIterator[str]:
-    with log.open("wb") as err:
-        proc = await asyncio.create_subprocess_exec(
-            sys.executable,
-            "-m",
-            "clients",
-            "operator",
-            "--port",
-            "0",
-            "--rig",
-            RIG,
-            "--connect",
-            router,
-            "--name",
-            "bench-operator",
-            stdout=asyncio.subprocess.PIPE,
-            stderr=err,
-        )
-    try:
-        line = (await asyncio.wait_for(proc.stdout.readline(), 30)).decode()
-        url = re.search(r"http://\S+", line)
-        if not url:
-            raise RuntimeError(f"cyborg operator did not start: {line!r}; see {log}")
-        yield url[0]
-    finally:
-        proc.terminate()
-        await proc.wait()
 
 
 class _Motion:
@@ -135,13 +86,13 @@ async def _clicks(browser: Browser, client: RigClient, motion: _Motion, n: int) 
 
 
 async def _run(seconds: float, clicks: int, screenshot: Path | None) -> dict:
-    with tempfile.TemporaryDirectory(prefix="bench-operator-") as tmp, _router() as router:
+    with tempfile.TemporaryDirectory(prefix="bench-operator-") as tmp, router() as endpoint:
         config = Path(tmp) / "cyborgd.toml"
         config.write_text(
-            simulated_config(RIG, Path(tmp) / "archive", connect=[router], frame_rate=FPS)
+            simulated_config(RIG, Path(tmp) / "archive", connect=[endpoint], frame_rate=FPS)
         )
         async with launch(["--config", str(config)], Path(tmp) / "cyborgd.log"):
-            with RigClient.open(Transport("client", connect=(router,)), RIG, "bench") as client:
+            with RigClient.open(Transport("client", connect=(endpoint,)), RIG, "bench") as client:
                 await client.wait_alive()
                 bus_frames: list[float] = []
                 recording = False
@@ -152,7 +103,9 @@ async def _run(seconds: float, clicks: int, screenshot: Path | None) -> dict:
 
                 sub = client.frame_subscriber(on_frame)
                 motion = _Motion(client)
-                async with _operator(router, Path(tmp) / "operator.log") as url:
+                async with operator(
+                    endpoint, RIG, "bench-operator", Path(tmp) / "operator.log"
+                ) as url:
                     with chromium() as browser:
                         browser.open(url)
                         await asyncio.to_thread(browser.wait, "window.cyborgStats().frames >= 25")

@@ -10,15 +10,20 @@ import asyncio
 import contextlib
 import json
 import os
+import re
 import signal
 import socket
 import sys
-from collections.abc import AsyncIterator, Sequence
+from collections.abc import AsyncIterator, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-__all__ = ["Daemon", "free_port", "launch", "simulated_config", "spawn"]
+import zenoh
+
+from protocol.transport import Transport
+
+__all__ = ["Daemon", "free_port", "launch", "operator", "router", "simulated_config", "spawn"]
 
 
 def free_port() -> int:
@@ -124,3 +129,54 @@ async def launch(
         yield daemon
     finally:
         await daemon.stop()
+
+
+@contextlib.contextmanager
+def router() -> Iterator[str]:
+    """A zenoh router in this process on a loopback port the kernel picked; yields its
+    endpoint (read back from the router's admin space)."""
+    cfg = zenoh.Config()
+    for key, value in Transport("router", listen=("tcp/127.0.0.1:0",)).json5_items():
+        cfg.insert_json5(key, value)
+    cfg.insert_json5("adminspace/enabled", "true")
+    session = zenoh.open(cfg)
+    try:
+        info = next(iter(session.get(f"@/{session.zid()}/router", timeout=5.0)))
+        yield json.loads(info.ok.payload.to_string())["locators"][0]
+    finally:
+        session.close()
+
+
+@contextlib.asynccontextmanager
+async def operator(connect: str, rig: str, name: str, log: Path) -> AsyncIterator[str]:
+    """``cyborg operator`` on a free port; yields its page's URL, then stops it (SIGTERM)
+    and raises if it did not exit cleanly."""
+    with log.open("wb") as err:
+        proc = await asyncio.create_subprocess_exec(
+            sys.executable,
+            "-m",
+            "clients",
+            "operator",
+            "--port",
+            "0",
+            "--rig",
+            rig,
+            "--connect",
+            connect,
+            "--name",
+            name,
+            stdout=asyncio.subprocess.PIPE,
+            stderr=err,
+        )
+    try:
+        line = (await asyncio.wait_for(proc.stdout.readline(), 30)).decode()
+        url = re.search(r"http://\S+", line)
+        if not url:
+            raise RuntimeError(f"cyborg operator did not start: {line!r}; see {log}")
+        yield url[0]
+    finally:
+        if proc.returncode is None:
+            proc.terminate()
+        code = await asyncio.wait_for(proc.wait(), 15)
+    if code != 0:
+        raise RuntimeError(f"cyborg operator exited with status {code}; see {log}")

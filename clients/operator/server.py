@@ -143,7 +143,8 @@ class Operator:
         return {"type": "state", **body}
 
     async def _socket(self, request: web.Request) -> web.WebSocketResponse:
-        ws = web.WebSocketResponse(heartbeat=20.0, max_msg_size=1 << 16)
+        # No per-message compression: JPEG does not shrink, and it would cost a core.
+        ws = web.WebSocketResponse(heartbeat=20.0, max_msg_size=1 << 16, compress=False)
         await ws.prepare(request)
         page = _Page(ws)
         self._pages.add(page)

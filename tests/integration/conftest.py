@@ -3,13 +3,12 @@ process with the PTU emulator on a pty and the simulated camera, clients in clie
 
 from __future__ import annotations
 
-import json
 from collections.abc import AsyncIterator, Iterator
 from pathlib import Path
 
 import pytest
-import zenoh
 
+from clients import launch
 from clients.launch import Daemon, simulated_config, spawn
 from clients.rigclient import RigClient
 from protocol.transport import Transport
@@ -18,17 +17,8 @@ from protocol.transport import Transport
 @pytest.fixture
 def router() -> Iterator[str]:
     """A router listening on a port the kernel picked; yields its endpoint."""
-    cfg = zenoh.Config()
-    for key, value in Transport(mode="router", listen=("tcp/127.0.0.1:0",)).json5_items():
-        cfg.insert_json5(key, value)
-    cfg.insert_json5("adminspace/enabled", "true")
-    session = zenoh.open(cfg)
-    try:
-        info = next(iter(session.get(f"@/{session.zid()}/router", timeout=5.0)))
-        locator = json.loads(info.ok.payload.to_string())["locators"][0]
-        yield locator
-    finally:
-        session.close()
+    with launch.router() as endpoint:
+        yield endpoint
 
 
 @pytest.fixture

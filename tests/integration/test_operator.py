@@ -4,14 +4,13 @@ a router: live frames, a survey started from the page, clicks that re-point the 
 from __future__ import annotations
 
 import asyncio
-import re
-import sys
 from collections.abc import AsyncIterator
 from pathlib import Path
 
 import pytest
 
 from bench.browser import MISSING, Browser, chromium
+from clients.launch import operator as launch_operator
 from clients.rigclient import RigClient
 from protocol.messages import PtuState, TakeControl
 
@@ -21,30 +20,8 @@ pytestmark = [pytest.mark.timeout(240), pytest.mark.skipif(bool(MISSING), reason
 @pytest.fixture
 async def operator(router: str, tmp_path: Path) -> AsyncIterator[str]:
     """``cyborg operator`` on a free port; yields the page's URL."""
-    log = (tmp_path / "operator.log").open("wb")
-    proc = await asyncio.create_subprocess_exec(
-        sys.executable,
-        "-m",
-        "clients",
-        "operator",
-        "--port",
-        "0",
-        "--rig",
-        "itest",
-        "--connect",
-        router,
-        "--name",
-        "remote-op",
-        stdout=asyncio.subprocess.PIPE,
-        stderr=log,
-    )
-    line = (await asyncio.wait_for(proc.stdout.readline(), 30)).decode()
-    url = re.search(r"http://\S+", line)
-    assert url, line
-    yield url[0]
-    proc.terminate()
-    assert await asyncio.wait_for(proc.wait(), 15) == 0
-    log.close()
+    async with launch_operator(router, "itest", "remote-op", tmp_path / "operator.log") as url:
+        yield url
     assert b"Traceback" not in (tmp_path / "operator.log").read_bytes()
 
 
