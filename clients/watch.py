@@ -12,10 +12,11 @@ import asyncio
 import contextlib
 import time
 from collections import deque
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Awaitable, Callable
 from dataclasses import dataclass, field
 
 from protocol.messages import (
+    Ack,
     Chip,
     Event,
     InterestResult,
@@ -26,9 +27,15 @@ from protocol.messages import (
     SurveyStatus,
 )
 
-from .rigclient import RigClient, RigError
+from .rigclient import (
+    ControlHeldError,
+    RigClient,
+    RigError,
+    RigRefusedError,
+    RigUnavailableError,
+)
 
-__all__ = ["LogLine", "RigView", "RigWatch"]
+__all__ = ["LogLine", "Outcome", "RigView", "RigWatch"]
 
 STATUS_PERIOD = 5.0
 """Seconds between status refreshes when nothing else prompts one."""
@@ -41,6 +48,15 @@ class LogLine:
     level: str
     """info, warning, error (from the rig) or ok, refused (a command's outcome)."""
     text: str
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """A command's outcome in plain words: an ack's result, or UNAVAILABLE, or ERROR."""
+
+    ok: bool
+    result: str
+    detail: str
 
 
 @dataclass
@@ -82,6 +98,35 @@ class RigWatch:
         """Add a line to the log (command outcomes, client-side errors)."""
         self.view.log.append(LogLine(time.time(), level, text))
         self._bump()
+
+    async def act(
+        self,
+        label: str,
+        send: Callable[[], Awaitable[Ack]],
+        *,
+        motion: bool = True,
+        take_hint: str = "take it over",
+    ) -> Outcome:
+        """Send one command as an interactive client does: take control first if nobody
+        holds it (never from another client), and log the outcome in plain words."""
+        try:
+            mine = self.view.controller == self.client.name
+            if motion and not mine and await self.client.ensure_control():
+                self.note("ok", "took control (nobody held it)")
+            ack = await send()
+            outcome = Outcome(True, ack.result, ack.detail)
+        except ControlHeldError as exc:
+            outcome = Outcome(False, "REJECTED", f"{exc}; {take_hint}")
+        except RigRefusedError as exc:
+            outcome = Outcome(False, exc.ack.result, exc.ack.detail)
+        except RigUnavailableError:
+            outcome = Outcome(False, "UNAVAILABLE", "the rig does not answer")
+        except (RigError, ValueError) as exc:
+            outcome = Outcome(False, "ERROR", str(exc))
+        finally:
+            self.refresh()
+        self.note("ok" if outcome.ok else "refused", f"{label}: {outcome.detail}")
+        return outcome
 
     def refresh(self) -> None:
         """Ask for a status update soon (after a command that changes the rig's state)."""

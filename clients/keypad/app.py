@@ -28,13 +28,7 @@ from protocol.messages import (
 )
 
 from ..link import transport
-from ..rigclient import (
-    ControlHeldError,
-    RigClient,
-    RigError,
-    RigRefusedError,
-    RigUnavailableError,
-)
+from ..rigclient import RigClient
 from ..watch import RigWatch
 from .view import STEPS, Prompt, render
 
@@ -128,28 +122,11 @@ class Keypad:
     # -- commands --------------------------------------------------------------------------
 
     def _spawn(self, label: str, send: Callable[[], Awaitable[Ack]], motion: bool = True) -> None:
-        task = asyncio.create_task(self._send(label, send, motion))
+        """Each command in its own task: HALT never waits behind another."""
+        act = self.watch.act(label, send, motion=motion, take_hint="press t to take it over")
+        task = asyncio.create_task(act)
         self._tasks.add(task)
         task.add_done_callback(self._tasks.discard)
-
-    async def _send(self, label: str, send: Callable[[], Awaitable[Ack]], motion: bool) -> None:
-        note = self.watch.note
-        try:
-            mine = self.watch.view.controller == self.client.name
-            if motion and not mine and await self.client.ensure_control():
-                note("ok", "took control (nobody held it)")
-            ack = await send()
-            note("ok", f"{label}: {ack.detail}")
-        except ControlHeldError as exc:
-            note("refused", f"{label}: {exc}; press t to take it over")
-        except RigRefusedError as exc:
-            note("refused", f"{label} {exc.ack.result}: {exc.ack.detail}")
-        except RigUnavailableError:
-            note("error", f"{label}: the rig does not answer")
-        except (RigError, ValueError) as exc:
-            note("error", f"{label}: {exc}")
-        finally:
-            self.watch.refresh()
 
     # -- screen ----------------------------------------------------------------------------
 

@@ -19,19 +19,19 @@ import mimetypes
 import struct
 import time
 from collections import OrderedDict
-from collections.abc import Awaitable, Callable
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from aiohttp import WSMsgType, web
 
 from protocol.messages import (
-    Ack,
     ArchiveData,
     ArchiveGet,
     ArchiveList,
     ArchiveListing,
     ChooseTarget,
+    Message,
     PtuGoto,
     PtuHalt,
     PtuHome,
@@ -43,14 +43,7 @@ from protocol.messages import (
     TakeControl,
 )
 
-from ..rigclient import (
-    ControlHeldError,
-    LiveFrame,
-    RigClient,
-    RigError,
-    RigRefusedError,
-    RigUnavailableError,
-)
+from ..rigclient import LiveFrame, RigClient, RigError, RigRefusedError
 from ..watch import RigWatch
 
 __all__ = ["Operator"]
@@ -78,24 +71,21 @@ class Operator:
         self._frames: Any = None  # the zenoh subscriber while a page is open
         self._cache: OrderedDict[str, bytes] = OrderedDict()
         self._cached = 0
-        self._commands: dict[str, Callable[[dict], Awaitable[Ack]]] = {
-            "halt": lambda b: self.client.command("ptu/halt", PtuHalt()),
-            "home": lambda b: self.client.command("ptu/home", PtuHome()),
-            "goto": lambda b: self.client.command("ptu/goto", PtuGoto(b["pan"], b["tilt"])),
-            "jog": lambda b: self.client.command("ptu/jog", PtuJog(b["pan"], b["tilt"])),
-            "look": lambda b: self.client.command(
+        name = client.name
+        self._requests: dict[str, Callable[[dict], tuple[str, Message]]] = {
+            "halt": lambda b: ("ptu/halt", PtuHalt()),
+            "home": lambda b: ("ptu/home", PtuHome()),
+            "goto": lambda b: ("ptu/goto", PtuGoto(b["pan"], b["tilt"])),
+            "jog": lambda b: ("ptu/jog", PtuJog(b["pan"], b["tilt"])),
+            "look": lambda b: (
                 "ptu/look",
                 PtuLook(b["u"], b["v"], b.get("station", ""), b.get("pan"), b.get("tilt")),
             ),
-            "survey": lambda b: self.client.command("survey/start", SurveyStart()),
-            "cancel": lambda b: self.client.command("survey/cancel", SurveyCancel()),
-            "choose": lambda b: self.client.command(
-                "target/choose", ChooseTarget(b["station"], b["rank"])
-            ),
-            "take": lambda b: self.client.command("control/take", TakeControl(self.client.name)),
-            "release": lambda b: self.client.command(
-                "control/release", ReleaseControl(self.client.name)
-            ),
+            "survey": lambda b: ("survey/start", SurveyStart()),
+            "cancel": lambda b: ("survey/cancel", SurveyCancel()),
+            "choose": lambda b: ("target/choose", ChooseTarget(b["station"], b["rank"])),
+            "take": lambda b: ("control/take", TakeControl(name)),
+            "release": lambda b: ("control/release", ReleaseControl(name)),
         }
 
     def app(self) -> web.Application:
@@ -198,31 +188,28 @@ class Operator:
 
     async def _command(self, request: web.Request) -> web.Response:
         name = request.match_info["command"]
-        send = self._commands.get(name)
-        if send is None:
+        build = self._requests.get(name)
+        if build is None:
             return web.json_response({"ok": False, "error": f"no command {name!r}"}, status=404)
         try:
             body = await request.json() if request.can_read_body else {}
             if not isinstance(body, dict):
                 raise ValueError("the body must be a JSON object")
-            if name not in ("halt", "take", "release") and await self.client.ensure_control():
-                self.watch.note("ok", "took control (nobody held it)")
-            ack = await send(body)
-        except ControlHeldError as exc:
-            return self._reply(name, False, "REJECTED", f"{exc}; press Take to take it over")
-        except RigRefusedError as exc:
-            return self._reply(name, False, exc.ack.result, exc.ack.detail)
-        except RigUnavailableError:
-            return self._reply(name, False, "UNAVAILABLE", "the rig does not answer")
-        except (RigError, ValueError, KeyError, TypeError) as exc:
-            return self._reply(name, False, "ERROR", f"bad request: {exc}")
-        finally:
-            self.watch.refresh()
-        return self._reply(name, True, ack.result, ack.detail)
-
-    def _reply(self, name: str, ok: bool, result: str, detail: str) -> web.Response:
-        self.watch.note("ok" if ok else "refused", f"{name}: {detail}")
-        return web.json_response({"ok": ok, "result": result, "detail": detail})
+            command, msg = build(body)
+        except (ValueError, KeyError, TypeError) as exc:
+            self.watch.note("refused", f"{name}: bad request: {exc}")
+            return web.json_response(
+                {"ok": False, "result": "ERROR", "detail": f"bad request: {exc}"}
+            )
+        outcome = await self.watch.act(
+            name,
+            lambda: self.client.command(command, msg),
+            motion=name not in ("halt", "take", "release"),
+            take_hint="press Take to take it over",
+        )
+        return web.json_response(
+            {"ok": outcome.ok, "result": outcome.result, "detail": outcome.detail}
+        )
 
     # -- archive -------------------------------------------------------------------------
 
