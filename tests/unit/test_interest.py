@@ -85,3 +85,30 @@ def test_white_spot_is_explained_as_a_grey_hue_class(rng):
     h = next(e for e in res.explanations[0] if e["plane"] == "H")
     assert h["value"] == "grey"
     assert "H class" in describe(res.explanations[0]) and "(grey," in describe(res.explanations[0])
+
+
+def test_blob_scoring_prefers_a_compact_spot_to_a_ledge_shadow(rng):
+    """A bluish ledge shadow across the frame is rare in H, S and I, a plant of the rock's
+    brightness mostly in H: the shadow wins the plain blurred sum, the plant wins with blob
+    scoring, and the decimated grid agrees with the full-resolution one. (A shadow that ends
+    inside the frame keeps some score at its two rounded ends: half a blob each.)"""
+    img = np.empty((120, 200, 3), np.float64)
+    img[:] = (60, 110, 160)
+    img += rng.normal(0, 3, img.shape)
+    img[30:38] = (70, 40, 30)  # a ledge shadow, 8 px high, across the frame
+    img[80:90, 95:105] = (60, 160, 110)  # a plant, 10 px across
+    img = np.clip(img, 0, 255).astype(np.uint8)
+    plain = analyze(img, DEFAULT.replace(blob=False))
+    assert abs(plain.points[0].y - 34) < 5, "without blob scoring the shadow wins"
+    res = analyze(img, DEFAULT)
+    top = res.points[0]
+    assert abs(top.x - 99.5) < 3 and abs(top.y - 84.5) < 3
+    grid = res.interest.full()
+    assert grid[34, 100] < 0.05 * grid[85, 100]  # the shadow's middle is a ridge: ~0
+    exact = interest_map(res.segmentations, DEFAULT.replace(exact_blur=True))
+    assert abs(find_points(exact, DEFAULT)[0].x - top.x) < 1.5
+
+
+def test_blob_and_surround_are_exclusive():
+    with pytest.raises(ValueError, match="surround or blob"):
+        DEFAULT.replace(surround=2.0)
