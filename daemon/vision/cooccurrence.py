@@ -10,10 +10,12 @@ half-width at half-maximum, intersected with the values nearer to g than to any 
 (label 0, drawn black).
 Labels 1..K are ordered by class area: 1 is the largest class.
 
-Fast labelling: each value v of class k is coded as u(v) = 32 k + q(v) and
-w(v) = 32 k + 16 - q(v), with q(v) = round(15 (v - g)^2 / r^2) <= 15. A pair (a, b) lies in
-the disc of a common class exactly when the saturating difference w(b) - u(a) is in 1..16,
-so the test is two SIMD passes per direction (the disc edge is resolved to r^2 / 15).
+Fast labelling: each value v of class k is coded as u(v) = 32 k + q(v), with
+q(v) = round(15 (v - g)^2 / r^2) <= 15 (one lookup table), and w(v) = 32 k + 16 - q(v) is
+derived from u by bit arithmetic. A pair (a, b) lies in the disc of a common class exactly
+when the saturating difference w(b) - u(a) is in 1..16, so the test is two SIMD passes per
+direction (the disc edge is resolved to r^2 / 15). Values in no disc get u = 240, whose w is
+224: no pair with them lands in 1..16.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ __all__ = [
     "segment_plane",
 ]
 
-_NONE = 255
+_NONE = 240
 
 
 @dataclass(frozen=True)
@@ -82,8 +84,8 @@ def cooccurrence_histogram(
     mask : (M, N) bool ndarray, optional
         Only pairs whose two pixels are both in the mask are counted.
     max_pairs : int
-        Above this many pairs, rows are taken on a regular lattice (a deterministic
-        estimate; the histogram is a density and a few million pairs resolve it).
+        Above this many pairs, every s-th row is used (s even; a deterministic estimate:
+        the histogram is a density and a few million pairs resolve it).
 
     Returns
     -------
@@ -104,27 +106,41 @@ def cooccurrence_histogram(
     rows, cols = plane.shape
     total = rows * (cols - 1) + (rows - 1) * cols
     step = max(1, -(-total // max_pairs))
-    hist = np.zeros((256, 256), np.float32)
+    step += step % 2 if step > 1 else 0
     m8 = None if mask is None else mask.astype(np.uint8)
-    pairs = (
-        (
-            plane[::step, :-1],
-            plane[::step, 1:],
-            None if m8 is None else m8[::step, :-1] & m8[::step, 1:],
-        ),
-        (plane[:-1:step], plane[1::step], None if m8 is None else m8[:-1:step] & m8[1::step]),
-    )
-    for first, second, both in pairs:
-        if first.size == 0:
-            continue
-        hist += cv2.calcHist(
-            [np.ascontiguousarray(first), np.ascontiguousarray(second)],
-            [0, 1],
-            None if both is None else np.ascontiguousarray(both),
-            [256, 256],
-            [0, 256, 0, 256],
-        )
-    return hist + hist.T
+    hist = np.zeros(1 << 16, np.float32)
+    # Horizontal pairs: lattice rows as they are. Vertical pairs: the same, transposed, from
+    # pair-starts 0, s, 2s, ... (even when s > 1, so one parity of pairs covers them).
+    blocks = [(plane[::step], None if m8 is None else m8[::step], 1)]
+    transposed_mask = None if m8 is None else cv2.transpose(m8)
+    blocks.append((cv2.transpose(plane), transposed_mask, max(1, step // 2)))
+    for block, block_mask, stride in blocks:
+        for parity in (0, 1) if stride == 1 else (0,):
+            _count_pairs(hist, block, block_mask, parity, stride)
+    square = hist.reshape(256, 256)
+    return square + square.T
+
+
+def _count_pairs(
+    hist: np.ndarray, block: np.ndarray, mask: np.ndarray | None, parity: int, stride: int
+) -> None:
+    """Add the pairs (c, c + 1), c = parity, parity + 2, ..., of every row of ``block``.
+
+    A pair of adjacent bytes read as one uint16 is the pair's code, so the 65536-bin histogram
+    of a zero-copy uint16 view is the pair histogram (byte order does not matter: the result
+    is symmetrised). Why: one 1-D pass instead of OpenCV's slower 2-D histogram.
+    """
+    width = (block.shape[1] - parity) // 2 * 2
+    if width == 0 or block.shape[0] == 0:
+        return
+    codes = block[:, parity : parity + width].view(np.uint16)[:, ::stride]
+    if codes.strides[0] % 2:  # rows of odd length: OpenCV wants whole-element row steps
+        codes = np.ascontiguousarray(codes)
+    both = None
+    if mask is not None:
+        pair = mask[:, parity : parity + width]
+        both = cv2.bitwise_and(pair[:, 0::2][:, ::stride], pair[:, 1::2][:, ::stride])
+    hist += cv2.calcHist([codes], [0], both, [1 << 16], [0, 1 << 16]).ravel()
 
 
 def _diagonal_profile(smooth: np.ndarray, band: int) -> np.ndarray:
@@ -207,59 +223,66 @@ def find_classes(hist: np.ndarray, params: VisionParams) -> tuple[PlaneClass, ..
     return tuple(chosen)
 
 
-def _value_tables(classes: tuple[PlaneClass, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per-value class id (1-based, 0 = none) and the u/w pair codes of the module docstring."""
+def _value_tables(
+    classes: tuple[PlaneClass, ...], order: list[int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per-value class id (0 = none) and the u code of the module docstring.
+
+    A value belongs to the nearest peak whose disc holds it (ties: the higher peak, i.e. the
+    earlier in ``classes``); ids number the classes as listed in ``order`` (1-based).
+    """
     values = np.arange(256)
     best = np.full(256, np.inf)
     cls = np.zeros(256, np.uint8)
     q = np.zeros(256, np.int64)
-    for k, c in enumerate(classes, start=1):
+    for k, c in enumerate(classes):
         dist = np.abs(values - c.center)
         inside = (dist <= c.radius) & (dist < best)
         best[inside] = dist[inside]
-        cls[inside] = k
+        cls[inside] = order.index(k) + 1
         q[inside] = np.rint(15.0 * dist[inside] ** 2 / c.radius**2)
-    q = np.minimum(q, 15)
-    has = cls > 0
-    base = 32 * (cls.astype(np.int64) - 1)
-    u = np.where(has, base + q, _NONE).astype(np.uint8)
-    w = np.where(has, base + 16 - q, 0).astype(np.uint8)
-    return cls, u, w
+    u = 32 * (cls.astype(np.int64) - 1) + np.minimum(q, 15)
+    return cls, np.where(cls > 0, u, _NONE).astype(np.uint8)
 
 
-def _vote(plane: np.ndarray, u_lut: np.ndarray, w_lut: np.ndarray, min_votes: int) -> np.ndarray:
+def _w_codes(u: np.ndarray) -> np.ndarray:
+    """w = 32 k + 16 - q from u = 32 k + q, in three SIMD passes (cheaper than a lookup)."""
+    w = cv2.bitwise_and(u, 224)
+    w += 16
+    return cv2.subtract(w, cv2.bitwise_and(u, 31))
+
+
+def _vote(u: np.ndarray, min_votes: int) -> np.ndarray:
     """uint8 mask (255 = enough neighbour pairs inside the pixel's class disc)."""
-    u = cv2.LUT(plane, u_lut)
-    w = cv2.LUT(plane, w_lut)
-    count = np.zeros(plane.shape, np.uint8)
+    w = _w_codes(u)
     # Borders are reflected (as the interest blur does): a pixel's missing pair mirrors the
     # pair on its other side, so border pixels are neither easier nor harder to label.
-    if plane.shape[1] > 1:
+    count = np.zeros(u.shape, np.uint8)
+    if u.shape[1] > 1:
         h = cv2.inRange(cv2.subtract(w[:, 1:], u[:, :-1]), 1, 16)
         h >>= 7
-        count[:, :-1] += h
-        count[:, 1:] += h
-        count[:, 0] += h[:, 0]
-        count[:, -1] += h[:, -1]
-    if plane.shape[0] > 1:
+        both = cv2.copyMakeBorder(h, 0, 0, 1, 1, cv2.BORDER_REPLICATE)
+        count = cv2.add(both[:, :-1], both[:, 1:])
+    if u.shape[0] > 1:
         v = cv2.inRange(cv2.subtract(w[1:], u[:-1]), 1, 16)
         v >>= 7
-        count[:-1] += v
-        count[1:] += v
-        count[0] += v[0]
-        count[-1] += v[-1]
+        both = cv2.copyMakeBorder(v, 1, 1, 0, 0, cv2.BORDER_REPLICATE)
+        count = cv2.add(count, cv2.add(both[:-1], both[1:]))
     return cv2.compare(count, min_votes, cv2.CMP_GE)
 
 
 def _relax(raw: np.ndarray, candidate: np.ndarray) -> np.ndarray:
     """One pass: an unsegmented pixel joins its value's class if >= 2 neighbours hold it."""
     padded = cv2.copyMakeBorder(raw, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
+    rows, cols = raw.shape
     agree = np.zeros(raw.shape, np.uint8)
     for dy, dx in ((0, 1), (2, 1), (1, 0), (1, 2)):
-        shifted = padded[dy : dy + raw.shape[0], dx : dx + raw.shape[1]]
-        agree += (shifted == candidate).view(np.uint8)
-    join = (raw == 0) & (candidate > 0) & (agree >= 2)
-    return np.where(join, candidate, raw)
+        same = cv2.compare(padded[dy : dy + rows, dx : dx + cols], candidate, cv2.CMP_EQ)
+        same >>= 7
+        agree += same
+    # Where the candidate is 0 (no class) joining changes nothing, so no test is needed.
+    join = cv2.bitwise_and(cv2.compare(raw, 0, cv2.CMP_EQ), cv2.compare(agree, 2, cv2.CMP_GE))
+    return cv2.bitwise_or(raw, cv2.bitwise_and(candidate, join))
 
 
 def segment_plane(
@@ -303,36 +326,40 @@ def segment_plane(
     # numpy uint8 addition wraps modulo 256, which is the hue rotation we want.
     coded = plane if offset % 256 == 0 else plane + np.uint8(offset % 256)
     hist = cooccurrence_histogram(coded, mask, params.cooc_max_pairs)
-    classes = find_classes(hist, params)
-    if not classes:
+    peaks = find_classes(hist, params)
+    if not peaks:
         return Segmentation(np.zeros(plane.shape, np.uint8), (), hist, offset % 256)
-    cls, u_lut, w_lut = _value_tables(classes)
-    candidate = cv2.LUT(coded, cls)
-    ok = _vote(coded, u_lut, w_lut, params.min_votes)
+    # Number the classes by expected area (pairs along their stretch of the diagonal), so
+    # the final ranking by exact area is usually the identity and costs no relabelling pass.
+    prof = _diagonal_profile(hist, params.diag_band)
+    expected = [prof[max(0, c.center - c.radius) : c.center + c.radius + 1].sum() for c in peaks]
+    order = sorted(range(len(peaks)), key=lambda i: -expected[i])
+    classes = [peaks[i] for i in order]
+    cls, u_lut = _value_tables(peaks, order)
+    u = cv2.LUT(coded, u_lut)
+    ok = _vote(u, params.min_votes)
     if mask is not None:
         ok[~mask] = 0
-    raw = cv2.bitwise_and(candidate, ok)
-    for _ in range(params.relax_passes):
-        raw = _relax(raw, candidate if mask is None else np.where(mask, candidate, 0))
-    areas = _class_areas(coded, raw, cls, len(classes))
-    order = sorted(
-        range(len(classes)),
+    # A labelled pixel's class is its own value's class: the top bits of its u code.
+    raw = cv2.bitwise_and(np.right_shift(u, 5) + np.uint8(1), ok)
+    if params.relax_passes:
+        candidate = cv2.LUT(coded, cls)
+        if mask is not None:
+            candidate[~mask] = 0
+        for _ in range(params.relax_passes):
+            raw = _relax(raw, candidate)
+    areas = [cv2.countNonZero(cv2.compare(raw, k, cv2.CMP_EQ)) for k in range(1, len(classes) + 1)]
+    ranked_ids = sorted(
+        (i for i in range(len(classes)) if areas[i] > 0),
         key=lambda i: (-areas[i], -classes[i].height, classes[i].center),
     )
-    order = [i for i in order if areas[i] > 0]
     to_rank = np.zeros(256, np.uint8)
-    for rank, i in enumerate(order, start=1):
+    for rank, i in enumerate(ranked_ids, start=1):
         to_rank[i + 1] = rank
-    labels = cv2.LUT(raw, to_rank)
+    identity = ranked_ids == list(range(len(classes)))
+    labels = raw if identity else cv2.LUT(raw, to_rank)
     ranked = tuple(
-        PlaneClass(classes[i].center, classes[i].radius, classes[i].height, int(areas[i]))
-        for i in order
+        PlaneClass(classes[i].center, classes[i].radius, classes[i].height, areas[i])
+        for i in ranked_ids
     )
     return Segmentation(labels, ranked, hist, offset % 256)
-
-
-def _class_areas(coded: np.ndarray, raw: np.ndarray, cls: np.ndarray, k: int) -> np.ndarray:
-    """Pixels per class; a label is always its value's class, so a value histogram suffices."""
-    labelled = cv2.compare(raw, 0, cv2.CMP_GT)
-    value_hist = cv2.calcHist([coded], [0], labelled, [256], [0, 256]).ravel()
-    return np.bincount(cls, weights=value_hist, minlength=k + 1)[1:].astype(np.int64)
