@@ -224,25 +224,31 @@ def find_classes(hist: np.ndarray, params: VisionParams) -> tuple[PlaneClass, ..
 
 
 def _value_tables(
-    classes: tuple[PlaneClass, ...], order: list[int]
-) -> tuple[np.ndarray, np.ndarray]:
-    """Per-value class id (0 = none) and the u code of the module docstring.
+    classes: tuple[PlaneClass, ...], value_counts: np.ndarray
+) -> tuple[list[int], np.ndarray]:
+    """Number the classes and code the values: (order, per-value u code).
 
     A value belongs to the nearest peak whose disc holds it (ties: the higher peak, i.e. the
-    earlier in ``classes``); ids number the classes as listed in ``order`` (1-based).
+    earlier in ``classes``). Ids 1..K number the classes by expected area, the count of their
+    values (``order[id - 1]`` indexes ``classes``), so the final ranking by exact area is
+    usually the identity and costs no relabelling pass. A value in no disc gets ``_NONE``.
     """
     values = np.arange(256)
     best = np.full(256, np.inf)
-    cls = np.zeros(256, np.uint8)
+    nearest = np.zeros(256, np.int64)
     q = np.zeros(256, np.int64)
-    for k, c in enumerate(classes):
+    for k, c in enumerate(classes, start=1):
         dist = np.abs(values - c.center)
         inside = (dist <= c.radius) & (dist < best)
         best[inside] = dist[inside]
-        cls[inside] = order.index(k) + 1
+        nearest[inside] = k
         q[inside] = np.rint(15.0 * dist[inside] ** 2 / c.radius**2)
-    u = 32 * (cls.astype(np.int64) - 1) + np.minimum(q, 15)
-    return cls, np.where(cls > 0, u, _NONE).astype(np.uint8)
+    expected = np.bincount(nearest, weights=value_counts, minlength=len(classes) + 1)[1:]
+    order = sorted(range(len(classes)), key=lambda i: -expected[i])
+    renumber = np.zeros(len(classes) + 1, np.int64)
+    renumber[[i + 1 for i in order]] = np.arange(1, len(classes) + 1)
+    cls = renumber[nearest]
+    return order, np.where(cls > 0, 32 * (cls - 1) + np.minimum(q, 15), _NONE).astype(np.uint8)
 
 
 def _w_codes(u: np.ndarray) -> np.ndarray:
@@ -329,23 +335,21 @@ def segment_plane(
     peaks = find_classes(hist, params)
     if not peaks:
         return Segmentation(np.zeros(plane.shape, np.uint8), (), hist, offset % 256)
-    # Number the classes by expected area (pairs along their stretch of the diagonal), so
-    # the final ranking by exact area is usually the identity and costs no relabelling pass.
-    prof = _diagonal_profile(hist, params.diag_band)
-    expected = [prof[max(0, c.center - c.radius) : c.center + c.radius + 1].sum() for c in peaks]
-    order = sorted(range(len(peaks)), key=lambda i: -expected[i])
+    order, u_lut = _value_tables(peaks, hist.sum(axis=1))
     classes = [peaks[i] for i in order]
-    cls, u_lut = _value_tables(peaks, order)
     u = cv2.LUT(coded, u_lut)
     ok = _vote(u, params.min_votes)
     if mask is not None:
         ok[~mask] = 0
-    # A labelled pixel's class is its own value's class: the top bits of its u code.
-    raw = cv2.bitwise_and(np.right_shift(u, 5) + np.uint8(1), ok)
+    # Every pixel's candidate class is its value's class, the top bits of its u code; the
+    # labelled pixels keep it.
+    candidate = np.right_shift(u, 5) + np.uint8(1)
+    raw = cv2.bitwise_and(candidate, ok)
     if params.relax_passes:
-        candidate = cv2.LUT(coded, cls)
+        has_class = cv2.compare(u, _NONE, cv2.CMP_NE)
         if mask is not None:
-            candidate[~mask] = 0
+            has_class[~mask] = 0
+        candidate = cv2.bitwise_and(candidate, has_class)
         for _ in range(params.relax_passes):
             raw = _relax(raw, candidate)
     areas = [cv2.countNonZero(cv2.compare(raw, k, cv2.CMP_EQ)) for k in range(1, len(classes) + 1)]

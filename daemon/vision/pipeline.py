@@ -97,8 +97,11 @@ def analyze(bgr: np.ndarray, params: VisionParams) -> Analysis:
         hue_mask = hsi.hue_defined
     offset = hue_histogram_rotation(hsi.h, hsi.hue_defined) if params.hue_rotate else 0
     if params.hue_grey == "class":
-        # After rotation by ``offset`` grey pixels sit at code 0, the emptiest hue.
-        hue = np.where(hsi.hue_defined, hsi.h, np.uint8((256 - offset) % 256))
+        # Grey pixels go to code 0 after rotation by ``offset``: the emptiest hue. (uint8
+        # arithmetic wraps modulo 256, which is the rotation.)
+        rotation = np.uint8(offset)
+        defined = hsi.hue_defined.view(np.uint8) * np.uint8(255)
+        hue = cv2.bitwise_and(hsi.h + rotation, defined) - rotation
     segs = (
         segment_plane(hue, params, mask=hue_mask, offset=offset),
         segment_plane(hsi.s, params),
