@@ -84,8 +84,8 @@ def cooccurrence_histogram(
     mask : (M, N) bool ndarray, optional
         Only pairs whose two pixels are both in the mask are counted.
     max_pairs : int
-        Above this many pairs, every s-th row is used (s even; a deterministic estimate:
-        the histogram is a density and a few million pairs resolve it).
+        Above this many pairs, rows are taken on a regular lattice (a deterministic
+        estimate; the histogram is a density and a few million pairs resolve it).
 
     Returns
     -------
@@ -106,41 +106,27 @@ def cooccurrence_histogram(
     rows, cols = plane.shape
     total = rows * (cols - 1) + (rows - 1) * cols
     step = max(1, -(-total // max_pairs))
-    step += step % 2 if step > 1 else 0
+    hist = np.zeros((256, 256), np.float32)
     m8 = None if mask is None else mask.astype(np.uint8)
-    hist = np.zeros(1 << 16, np.float32)
-    # Horizontal pairs: lattice rows as they are. Vertical pairs: the same, transposed, from
-    # pair-starts 0, s, 2s, ... (even when s > 1, so one parity of pairs covers them).
-    blocks = [(plane[::step], None if m8 is None else m8[::step], 1)]
-    transposed_mask = None if m8 is None else cv2.transpose(m8)
-    blocks.append((cv2.transpose(plane), transposed_mask, max(1, step // 2)))
-    for block, block_mask, stride in blocks:
-        for parity in (0, 1) if stride == 1 else (0,):
-            _count_pairs(hist, block, block_mask, parity, stride)
-    square = hist.reshape(256, 256)
-    return square + square.T
-
-
-def _count_pairs(
-    hist: np.ndarray, block: np.ndarray, mask: np.ndarray | None, parity: int, stride: int
-) -> None:
-    """Add the pairs (c, c + 1), c = parity, parity + 2, ..., of every row of ``block``.
-
-    A pair of adjacent bytes read as one uint16 is the pair's code, so the 65536-bin histogram
-    of a zero-copy uint16 view is the pair histogram (byte order does not matter: the result
-    is symmetrised). Why: one 1-D pass instead of OpenCV's slower 2-D histogram.
-    """
-    width = (block.shape[1] - parity) // 2 * 2
-    if width == 0 or block.shape[0] == 0:
-        return
-    codes = block[:, parity : parity + width].view(np.uint16)[:, ::stride]
-    if codes.strides[0] % 2:  # rows of odd length: OpenCV wants whole-element row steps
-        codes = np.ascontiguousarray(codes)
-    both = None
-    if mask is not None:
-        pair = mask[:, parity : parity + width]
-        both = cv2.bitwise_and(pair[:, 0::2][:, ::stride], pair[:, 1::2][:, ::stride])
-    hist += cv2.calcHist([codes], [0], both, [1 << 16], [0, 1 << 16]).ravel()
+    pairs = (
+        (
+            plane[::step, :-1],
+            plane[::step, 1:],
+            None if m8 is None else m8[::step, :-1] & m8[::step, 1:],
+        ),
+        (plane[:-1:step], plane[1::step], None if m8 is None else m8[:-1:step] & m8[1::step]),
+    )
+    for first, second, both in pairs:
+        if first.size == 0:
+            continue
+        hist += cv2.calcHist(
+            [np.ascontiguousarray(first), np.ascontiguousarray(second)],
+            [0, 1],
+            None if both is None else np.ascontiguousarray(both),
+            [256, 256],
+            [0, 256, 0, 256],
+        )
+    return hist + hist.T
 
 
 def _diagonal_profile(smooth: np.ndarray, band: int) -> np.ndarray:
