@@ -78,8 +78,9 @@ class VisionParams:
     compact rare regions then outrank wide, moderately rare beds. 0 = the seed's plain blur."""
     blob: bool = False
     """Score compact blobs only: the interest is the scale-normalised smaller principal
-    curvature of the blurred map, sigma^2 max(0, -lambda_max). A round rare spot keeps its
-    height; a ridge (a ledge shadow or a thin bed, rare along its whole length) scores 0."""
+    curvature of the blurred map, sigma^2 max(0, -lambda_max). A round rare spot keeps a
+    quarter to a third of its height; a ridge (a ledge shadow or a thin bed, rare along its
+    whole length) scores 0."""
     top_n: int = 3
     min_distance: float | None = None
     """Minimum distance between points (pixels); None means B."""

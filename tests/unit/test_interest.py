@@ -1,7 +1,8 @@
+import cv2
 import numpy as np
 import pytest
 
-from daemon.vision.interest import describe, find_points, interest_map
+from daemon.vision.interest import InterestMap, describe, find_points, interest_map
 from daemon.vision.params import DEFAULT, PAPER
 from daemon.vision.pipeline import analyze, as_bgr8
 
@@ -112,3 +113,20 @@ def test_blob_scoring_prefers_a_compact_spot_to_a_ledge_shadow(rng):
 def test_blob_and_surround_are_exclusive():
     with pytest.raises(ValueError, match="surround or blob"):
         DEFAULT.replace(surround=2.0)
+
+
+def test_partial_sort_of_peaks_picks_what_a_full_sort_picks(rng):
+    """Hundreds of peaks with many tied values: the top-k shortcut must not change the pick."""
+    grid = np.round(rng.random((200, 240)) * 8).astype(np.float32)  # 9 levels: ties galore
+    params = PAPER.replace(blur=2.0, top_n=40)
+    picked = find_points(InterestMap(grid, 1, grid.shape), params)
+    local = cv2.dilate(grid, np.ones((5, 5), np.uint8))
+    rows, cols = np.nonzero((grid >= local) & (grid > grid.min() + 1e-3 * np.ptp(grid)))
+    expected: list[tuple[int, int]] = []
+    for i in np.lexsort((cols, rows, -grid[rows, cols])):
+        r, c = int(rows[i]), int(cols[i])
+        if all((r - y) ** 2 + (c - x) ** 2 >= 4.0 for x, y in expected):
+            expected.append((c, r))
+    assert len(rows) > 32 * params.top_n and len(picked) == params.top_n
+    for point, (x, y) in zip(picked, expected, strict=False):  # refinement moves <= 0.5 px
+        assert abs(point.x - x) <= 0.5 and abs(point.y - y) <= 0.5
