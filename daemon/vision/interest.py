@@ -128,8 +128,6 @@ def interest_map(segs: tuple[Segmentation, ...], params: VisionParams) -> Intere
     else:
         summed = total.astype(np.float32)
     grid = _blur(summed, sigma, f)
-    if params.surround:
-        grid -= _blur(summed, sigma * params.surround, f)
     if params.blob:
         grid = _blob_strength(grid, sigma / f)
     grid *= 1.0 / scale

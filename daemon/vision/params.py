@@ -73,9 +73,6 @@ class VisionParams:
     """B, in analysed-image pixels."""
     blur_mode: BlurMode = "sigma"
     """sigma: B is the Gaussian sigma; fwhm: B is the full width at half maximum."""
-    surround: float = 0.0
-    """If > 0, subtract the uncommon sum blurred with surround x sigma (centre-surround):
-    compact rare regions then outrank wide, moderately rare beds. 0 = the seed's plain blur."""
     blob: bool = False
     """Score compact blobs only: the interest is the scale-normalised smaller principal
     curvature of the blurred map, sigma^2 max(0, -lambda_max). A round rare spot keeps a
@@ -96,10 +93,6 @@ class VisionParams:
             raise ValueError("need 1 <= radius_min <= radius_max <= 64")
         if self.blur <= 0 or self.top_n < 0 or self.cooc_sigma < 0 or self.presmooth < 0:
             raise ValueError("blur must be > 0; top_n, cooc_sigma, presmooth >= 0")
-        if self.surround != 0 and self.surround <= 1:
-            raise ValueError("surround must be 0 (off) or > 1")
-        if self.surround and self.blob:
-            raise ValueError("choose surround or blob, not both")
         if self.radius_scale <= 0:
             raise ValueError("radius_scale must be > 0")
         if self.uncommon not in ("rank", "spread", "surprisal"):

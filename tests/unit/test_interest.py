@@ -110,11 +110,6 @@ def test_blob_scoring_prefers_a_compact_spot_to_a_ledge_shadow(rng):
     assert abs(find_points(exact, DEFAULT)[0].x - top.x) < 1.5
 
 
-def test_blob_and_surround_are_exclusive():
-    with pytest.raises(ValueError, match="surround or blob"):
-        DEFAULT.replace(surround=2.0)
-
-
 def test_partial_sort_of_peaks_picks_what_a_full_sort_picks(rng):
     """Hundreds of peaks with many tied values: the top-k shortcut must not change the pick."""
     grid = np.round(rng.random((200, 240)) * 8).astype(np.float32)  # 9 levels: ties galore
