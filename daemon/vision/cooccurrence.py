@@ -106,25 +106,19 @@ def cooccurrence_histogram(
     rows, cols = plane.shape
     total = rows * (cols - 1) + (rows - 1) * cols
     step = max(1, -(-total // max_pairs))
-    hist = np.zeros((256, 256), np.float32)
-    m8 = None if mask is None else mask.astype(np.uint8)
-    pairs = (
-        (
-            plane[::step, :-1],
-            plane[::step, 1:],
-            None if m8 is None else m8[::step, :-1] & m8[::step, 1:],
-        ),
-        (plane[:-1:step], plane[1::step], None if m8 is None else m8[:-1:step] & m8[1::step]),
+    # Row-strided views go to OpenCV without copies: only the element stride must be 1.
+    runs = (
+        (np.s_[::step, :-1], np.s_[::step, 1:]),  # horizontal pairs
+        (np.s_[:-1:step], np.s_[1::step]),  # vertical pairs
     )
-    for first, second, both in pairs:
-        if first.size == 0:
+    m8 = None if mask is None else mask.view(np.uint8)
+    hist = np.zeros((256, 256), np.float32)
+    for first, second in runs:
+        if plane[first].size == 0:
             continue
-        hist += cv2.calcHist(
-            [np.ascontiguousarray(first), np.ascontiguousarray(second)],
-            [0, 1],
-            None if both is None else np.ascontiguousarray(both),
-            [256, 256],
-            [0, 256, 0, 256],
+        both = None if m8 is None else cv2.bitwise_and(m8[first], m8[second])
+        hist = cv2.calcHist(
+            [plane[first], plane[second]], [0, 1], both, [256, 256], [0, 256, 0, 256], hist, True
         )
     return hist + hist.T
 

@@ -78,12 +78,17 @@ def summed_uncommon(
     """The weighted sum of the uncommon maps as uint8 in fixed point; returns (map, scale)."""
     weights = params.plane_weights
     scale = min(10.0, 255.0 / (8.0 * max(sum(weights), 1e-9)))
-    total = None
-    for seg, weight in zip(segs, weights, strict=True):
-        table = np.clip(np.rint(uncommon_values(seg, params) * weight * scale), 0, 255)
-        part = cv2.LUT(seg.labels, table.astype(np.uint8))
-        total = part if total is None else cv2.add(total, part)
-    return total, scale
+    tables = [
+        np.clip(np.rint(uncommon_values(seg, params) * weight * scale), 0, 255).astype(np.uint8)
+        for seg, weight in zip(segs, weights, strict=True)
+    ]
+    # Labels are 0..8, so two planes' labels fit one byte (h * 16 + s) and one lookup serves
+    # both: 16 x 16 table entries of t_h + t_s (no overflow, the scale keeps sums <= 255).
+    pair = (tables[0][:16, None].astype(np.int64) + tables[1][None, :16]).astype(np.uint8)
+    packed = np.multiply(segs[0].labels, np.uint8(16))  # numpy's uint8 multiply is SIMD
+    cv2.bitwise_or(packed, segs[1].labels, dst=packed)
+    total = cv2.LUT(packed, pair.ravel())
+    return cv2.add(total, cv2.LUT(segs[2].labels, tables[2])), scale
 
 
 def interest_map(segs: tuple[Segmentation, ...], params: VisionParams) -> InterestMap:
