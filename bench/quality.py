@@ -7,7 +7,10 @@ Every method sees the same scenes in the same run. A point *hits* when it lies w
 * any-of-top-3: at least one of the three points hits;
 * precision@3: the share of the three points that hit (a scene with one target caps it at
   1/3, the same for every method);
-* shadow@3: the share of the three points that land on a decoy shadow instead.
+* shadow@3: the share of the three points that land on a decoy shadow instead;
+* repeat@1: two more looks at the scene, each with fresh sensor noise (sigma 2 added), put
+  their best points within the hit distance of each other: will a second look at the same
+  outcrop send the rover to the same place?
 
 Usage: ``python -m bench.quality [--scenes 120] [--seed 0] [--json]``.
 """
@@ -15,7 +18,9 @@ Usage: ``python -m bench.quality [--scenes 120] [--seed 0] [--json]``.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
+import math
 import sys
 import time
 from collections.abc import Callable
@@ -75,15 +80,32 @@ def score_scene(
     }
 
 
+def second_looks(scene: Scene, sigma: float = 2.0) -> tuple[Scene, Scene]:
+    """The same outcrop seen twice more: fresh sensor noise on each look, drawn from the
+    scene's seed so every method sees the same two looks."""
+    rng = np.random.default_rng([scene.seed, 2])
+    looks = []
+    for _ in range(2):
+        noisy = scene.image + rng.normal(0.0, sigma, scene.image.shape)
+        looks.append(dataclasses.replace(scene, image=np.clip(noisy, 0, 255).astype(np.uint8)))
+    return looks[0], looks[1]
+
+
+def repeats(first: list[InterestPoint], second: list[InterestPoint], tolerance: float) -> bool:
+    """Both looks have a best point and they lie within ``tolerance`` of each other."""
+    if not first or not second:
+        return False
+    return math.hypot(first[0].x - second[0].x, first[0].y - second[0].y) <= tolerance
+
+
 def run(n_scenes: int, seed: int, tolerance: float) -> dict[str, dict[str, float]]:
     table = methods()
-    sums = {
-        name: {"top1": 0.0, "any3": 0.0, "precision3": 0.0, "shadow3": 0.0, "ms": 0.0}
-        for name in table
-    }
+    keys = ("top1", "any3", "precision3", "shadow3", "repeat1", "ms")
+    sums = {name: dict.fromkeys(keys, 0.0) for name in table}
     for i in range(n_scenes):
         scene = outcrop_scene(seed + i)
         near = near_targets(scene, tolerance)
+        looks = second_looks(scene)
         for name, method in table.items():
             rng = np.random.default_rng(seed + i)
             t0 = time.perf_counter()
@@ -91,6 +113,10 @@ def run(n_scenes: int, seed: int, tolerance: float) -> dict[str, dict[str, float
             sums[name]["ms"] += (time.perf_counter() - t0) * 1e3
             for key, value in score_scene(scene, near, points).items():
                 sums[name][key] += value
+            again = [
+                method(look, np.random.default_rng([seed + i, k])) for k, look in enumerate(looks)
+            ]
+            sums[name]["repeat1"] += repeats(*again, tolerance)
     return {name: {k: v / n_scenes for k, v in row.items()} for name, row in sums.items()}
 
 
@@ -108,12 +134,13 @@ def main(argv: list[str] | None = None) -> int:
     last = args.seed + args.scenes - 1
     print(f"quality: {args.scenes} scenes (216x288), seeds {args.seed}..{last}, ", end="")
     print(f"hit tolerance {args.tolerance:g} px")
-    head = ("method", "top-1", "any-of-3", "prec@3", "shadow@3", "ms/scene")
-    print("{:20s} {:>7s} {:>9s} {:>7s} {:>9s} {:>9s}".format(*head))
+    head = ("method", "top-1", "any-of-3", "prec@3", "shadow@3", "repeat@1", "ms/scene")
+    print("{:20s} {:>7s} {:>9s} {:>7s} {:>9s} {:>9s} {:>9s}".format(*head))
     for name, r in results.items():
         print(
             f"{name:20s} {100 * r['top1']:6.1f}% {100 * r['any3']:8.1f}% "
-            f"{100 * r['precision3']:6.1f}% {100 * r['shadow3']:8.1f}% {r['ms']:9.2f}"
+            f"{100 * r['precision3']:6.1f}% {100 * r['shadow3']:8.1f}% "
+            f"{100 * r['repeat1']:8.1f}% {r['ms']:9.2f}"
         )
     best = results["default"]
     beaten = all(
@@ -123,7 +150,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     goal = best["any3"] >= 0.95 and best["top1"] >= 0.85
     print(
-        f"default beats every baseline on every score: {'yes' if beaten else 'NO'}; "
+        f"default beats every baseline on top-1, any-of-3 and prec@3: {'yes' if beaten else 'NO'}; "
         f"goal any-of-3 >= 95% and top-1 >= 85%: {'met' if goal else 'NOT met'}"
     )
     return 0

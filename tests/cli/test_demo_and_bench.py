@@ -25,7 +25,7 @@ def test_quality_benchmark_smoke():
     results = quality.run(n_scenes=3, seed=0, tolerance=6.0)
     assert set(results) == {"default", "paper", "spectral-residual", "rx-anomaly", "random"}
     for row in results.values():
-        for key in ("top1", "any3", "precision3", "shadow3"):
+        for key in ("top1", "any3", "precision3", "shadow3", "repeat1"):
             assert 0.0 <= row[key] <= 1.0
 
 
