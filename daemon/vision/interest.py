@@ -83,8 +83,9 @@ def summed_uncommon(
         for seg, weight in zip(segs, weights, strict=True)
     ]
     # Labels are 0..8, so two planes' labels fit one byte (h * 16 + s) and one lookup serves
-    # both: 16 x 16 table entries of t_h + t_s (no overflow, the scale keeps sums <= 255).
-    pair = (tables[0][:16, None].astype(np.int64) + tables[1][None, :16]).astype(np.uint8)
+    # both: 16 x 16 entries of t_h + t_s, saturated as cv2.add would.
+    pair = np.minimum(tables[0][:16, None].astype(np.int64) + tables[1][None, :16], 255)
+    pair = pair.astype(np.uint8)
     packed = np.multiply(segs[0].labels, np.uint8(16))  # numpy's uint8 multiply is SIMD
     cv2.bitwise_or(packed, segs[1].labels, dst=packed)
     total = cv2.LUT(packed, pair.ravel())

@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from bench import browser, bus, operator, ptu, quality, speed, survey
 from daemon.demo import run_demo
+from daemon.scene import outcrop_scene
+from daemon.vision.interest import InterestPoint
 
 
 def test_demo_writes_everything(tmp_path, capsys):
@@ -27,6 +30,21 @@ def test_quality_benchmark_smoke():
     for row in results.values():
         for key in ("top1", "any3", "precision3", "shadow3", "repeat1"):
             assert 0.0 <= row[key] <= 1.0
+
+
+def test_second_looks_are_fresh_but_reproducible_and_repeats_compares_best_points():
+    scene = outcrop_scene(4)
+    first, second = quality.second_looks(scene)
+    again = quality.second_looks(scene)
+    assert not np.array_equal(first.image, scene.image)
+    assert not np.array_equal(first.image, second.image)
+    assert np.array_equal(first.image, again[0].image)
+    # Fresh noise, not a new scene: the looks stay close to the original.
+    assert np.abs(first.image.astype(int) - scene.image).mean() < 3.0
+    here, there = InterestPoint(1, 10.0, 10.0, 1.0), InterestPoint(1, 30.0, 10.0, 1.0)
+    assert quality.repeats([here], [InterestPoint(1, 13.0, 14.0, 0.5), there], 6.0)
+    assert not quality.repeats([here], [there, here], 6.0)
+    assert not quality.repeats([], [here], 6.0)
 
 
 def test_speed_benchmark_smoke():

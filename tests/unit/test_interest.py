@@ -2,9 +2,17 @@ import cv2
 import numpy as np
 import pytest
 
-from daemon.vision.interest import InterestMap, describe, find_points, interest_map
+from daemon.vision.cooccurrence import PlaneClass, Segmentation
+from daemon.vision.interest import (
+    InterestMap,
+    describe,
+    find_points,
+    interest_map,
+    summed_uncommon,
+)
 from daemon.vision.params import DEFAULT, PAPER
 from daemon.vision.pipeline import analyze, as_bgr8
+from daemon.vision.uncommon import uncommon_map
 
 
 def rock_with_blob(rng, size=12, blob_colour=(40, 160, 40)):
@@ -125,3 +133,20 @@ def test_partial_sort_of_peaks_picks_what_a_full_sort_picks(rng):
     assert len(rows) > 32 * params.top_n and len(picked) == params.top_n
     for point, (x, y) in zip(picked, expected, strict=False):  # refinement moves <= 0.5 px
         assert abs(point.x - x) <= 0.5 and abs(point.y - y) <= 0.5
+
+
+@pytest.mark.parametrize("weights", [(1.0, 1.0, 1.0), (2.0, 0.5, 1.0), (0.0, 3.0, 0.1)])
+def test_summed_uncommon_equals_the_weighted_sum_of_the_maps(rng, weights):
+    # H and S share one lookup on a byte holding both labels; it must add up like three.
+    params = DEFAULT.replace(plane_weights=weights)
+    segs = []
+    for k in (8, 5, 3):
+        areas = sorted(rng.integers(1, 5000, k).tolist(), reverse=True)
+        classes = tuple(PlaneClass(10 * i, 3, 1.0, a) for i, a in enumerate(areas))
+        labels = rng.integers(0, k + 1, (40, 60)).astype(np.uint8)
+        segs.append(Segmentation(labels, classes, np.zeros((256, 256), np.float32)))
+    total, scale = summed_uncommon(tuple(segs), params)
+    expected = sum(w * uncommon_map(s, params) for s, w in zip(segs, weights, strict=True))
+    assert total.dtype == np.uint8
+    # Each plane's table is rounded to 1 / scale, so the sum is within 1.5 of those steps.
+    assert np.abs(total / scale - expected).max() <= 1.5 / scale + 1e-6
