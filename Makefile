@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo test bench bench-quality bench-speed bench-ptu bench-survey bench-bus bench-operator lint clean
+.PHONY: demo test bench bench-quality bench-real bench-speed bench-ptu bench-survey bench-bus bench-operator lint clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -23,10 +23,14 @@ test: $(STAMP)
 	$(PY) -m ruff check .
 	$(PY) -m pytest -q
 
-bench: bench-quality bench-speed bench-ptu bench-survey bench-bus bench-operator
+bench: bench-quality bench-real bench-speed bench-ptu bench-survey bench-bus bench-operator
 
 bench-quality: $(STAMP)
 	$(PY) -m bench.quality --scenes 120
+
+# Real labelled images from ../shared/data/real (or env CYBORG_REAL_DATA); says so if absent.
+bench-real: $(STAMP)
+	$(PY) -m bench.real
 
 bench-speed: $(STAMP)
 	$(PY) -m bench.speed

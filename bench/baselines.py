@@ -42,6 +42,41 @@ def rx_anomaly(bgr: np.ndarray) -> np.ndarray:
     return score.reshape(bgr.shape[:2]).astype(np.float32)
 
 
+def colour_rarity(image: np.ndarray, bins: int = 8, grey_bins: int = 32) -> np.ndarray:
+    """Global colour rarity: each pixel scores -log(share of the image in its colour bin).
+
+    The simplest "uncommon colour" detector, a floor the uncommon map must beat: colour is
+    quantised to ``bins`` levels per B, G, R channel (8 x 8 x 8 = 512 bins); a grey image
+    (1 channel, or three equal channels) gets ``grey_bins`` intensity levels instead, since
+    RGB binning would leave it only ``bins`` levels. No spatial context at all; blur the map
+    (``points_from_map(..., blur=True)``) to turn rare pixels into rare regions.
+    Returns (M, N) float32.
+
+    Examples
+    --------
+    >>> img = np.full((10, 10), 100, np.uint8)
+    >>> img[2, 3] = 250
+    >>> rar = colour_rarity(img)
+    >>> bool(rar[2, 3] > rar[0, 0]), round(float(rar[2, 3]), 2)
+    (True, 4.61)
+    """
+    grey = image.ndim == 2 or image.shape[2] == 1
+    if not grey and image.shape[2] >= 3:
+        b, g, r = image[..., 0], image[..., 1], image[..., 2]
+        grey = bool(np.array_equal(b, g) and np.array_equal(g, r))
+    pixels = image.reshape((*image.shape[:2], -1))[..., :3].astype(np.int64)
+    if grey:
+        codes = pixels[..., 0] * grey_bins >> 8
+        n_codes = grey_bins
+    else:
+        q = pixels * bins >> 8
+        codes = (q[..., 0] * bins + q[..., 1]) * bins + q[..., 2]
+        n_codes = bins**3
+    counts = np.bincount(codes.ravel(), minlength=n_codes)
+    surprisal = -np.log(counts / codes.size, where=counts > 0, out=np.zeros(n_codes))
+    return surprisal[codes].astype(np.float32)
+
+
 def points_from_map(saliency: np.ndarray, params: VisionParams, blur: bool) -> list[InterestPoint]:
     """Pick points from a baseline map with the pipeline's own peak picker."""
     grid = saliency.astype(np.float32)

@@ -77,9 +77,10 @@ def _analyze_parser(sub: argparse._SubParsersAction) -> None:
     ap.add_argument(
         "--downsample",
         type=float,
-        default=1.0,
+        default=None,
         metavar="F",
-        help="reduce the image F times before analysis, as the seed did (4-8)",
+        help="reduce the image F times before analysis, as the seed did (4-8); "
+        "default: the profile's working size",
     )
     ap.add_argument("--json", action="store_true", help="print one JSON object per image")
 
@@ -160,7 +161,7 @@ def main(argv: list[str] | None = None) -> int:
     quiet = cv2.utils.logging.LOG_LEVEL_SILENT
     cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_INFO if args.verbose else quiet)
     if args.command == "analyze":
-        if args.downsample <= 0:
+        if args.downsample is not None and args.downsample <= 0:
             parser.error("--downsample must be > 0")
         params = profile(args.profile)
         if args.top is not None:

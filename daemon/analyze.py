@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import sys
 import time
 from dataclasses import dataclass
@@ -13,7 +14,7 @@ from typing import Any, TextIO
 import cv2
 import numpy as np
 
-from .imageio import ImageError, read_image, write_atomic, write_png
+from .imageio import ImageError, read_image, write_atomic, write_jpeg, write_png
 from .vision import render
 from .vision.interest import PLANE_NAMES, describe
 from .vision.params import VisionParams, profile
@@ -30,15 +31,32 @@ class AnalyzeOptions:
     out: Path
     profile: str
     params: VisionParams
-    downsample: float = 1.0
+    downsample: float | None = None
+    """None: the profile's working size (``max_pixels``)."""
     json_lines: bool = False
 
 
+def working_reduction(shape: tuple[int, ...], params: VisionParams) -> float:
+    """How much to reduce an image of this shape before analysis: 1 up to ``max_pixels``.
+
+    >>> from daemon.vision.params import DEFAULT
+    >>> working_reduction((3000, 4000), DEFAULT) > 3.0, working_reduction((480, 640), DEFAULT)
+    (True, 1.0)
+    """
+    pixels = shape[0] * shape[1]
+    if not params.max_pixels or pixels <= params.max_pixels:
+        return 1.0
+    return math.sqrt(pixels / params.max_pixels)
+
+
 def analyze_image(
-    image: np.ndarray, params: VisionParams, downsample: float = 1.0
+    image: np.ndarray, params: VisionParams, downsample: float | None = None
 ) -> tuple[np.ndarray, Analysis]:
-    """Normalise, optionally reduce (as the seed did, 4-8x), analyse; returns (bgr, analysis)."""
+    """Normalise, reduce (as the seed did, 4-8x; by default to the profile's working size),
+    analyse; returns (bgr, analysis)."""
     bgr = as_bgr8(image)
+    if downsample is None:
+        downsample = working_reduction(bgr.shape, params)
     work = bgr
     if downsample != 1.0:
         rows, cols = bgr.shape[:2]
@@ -112,7 +130,13 @@ def write_products(
     interest = np.maximum(res.interest.full(), 0.0)
     put("interest.png", render.grey_ramp(interest))
     scale = bgr.shape[1] / res.hsi.i.shape[1]
-    put("overlay.png", render.overlay(bgr, res.points, radius=max(params.blur, 6.0), scale=scale))
+    if scale == 1.0:
+        put("overlay.png", render.overlay(bgr, res.points))
+    else:  # a big input: the overlay at the analysed size, and a JPEG at full size
+        small = cv2.resize(bgr, res.hsi.i.shape[::-1], interpolation=cv2.INTER_AREA)
+        put("overlay.png", render.overlay(small, res.points))
+        write_jpeg(folder / "overlay_full.jpg", render.overlay(bgr, res.points, scale=scale))
+        products["overlay_full"] = "overlay_full.jpg"
     doc = result_document(path, bgr, res, profile, products)
     write_atomic(folder / "result.json", (json.dumps(doc, indent=2) + "\n").encode())
     return doc

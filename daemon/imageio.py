@@ -76,7 +76,16 @@ def write_atomic(path: Path, data: bytes) -> None:
 
 def write_png(path: Path, image: np.ndarray) -> None:
     """Encode and write a PNG atomically."""
-    ok, buf = cv2.imencode(".png", image)
+    _write_encoded(path, image, ".png", [])
+
+
+def write_jpeg(path: Path, image: np.ndarray, quality: int = 90) -> None:
+    """Encode and write a JPEG atomically (photographs of many megapixels)."""
+    _write_encoded(path, image, ".jpg", [cv2.IMWRITE_JPEG_QUALITY, quality])
+
+
+def _write_encoded(path: Path, image: np.ndarray, ext: str, flags: list[int]) -> None:
+    ok, buf = cv2.imencode(ext, image, flags)
     if not ok:
-        raise OSError(f"{path}: PNG encoding failed")
+        raise OSError(f"{path}: {ext[1:].upper()} encoding failed")
     write_atomic(path, buf.tobytes())

@@ -2,16 +2,24 @@
 
 Pairs of 4-neighbours (a, b) are counted symmetrically in a 256x256 histogram. Pixels inside
 uniform regions give pairs near the diagonal, so each region type is a peak on the diagonal;
-pairs across boundaries fall off it. A *class* is a diagonal peak (at most 8); its region of
-(value, neighbour value) space is the disc of radius r around (g, g), where r is the peak's
-half-width at half-maximum, intersected with the values nearer to g than to any other peak
-(so class regions never overlap). A pixel joins class k when at least ``min_votes`` of its
-4 neighbour pairs fall in disc k (borders reflected); otherwise it stays **unsegmented**
-(label 0, drawn black).
+pairs across boundaries fall off it. A *class* is a diagonal peak (at most 8) and a region of
+(value, neighbour value) space around it, of one of two shapes (``class_shape``):
+
+* ``block``: Haddon & Boyce's reading. The diagonal profile's maxima are ranked by
+  persistence (how far the profile must fall before a maximum joins a higher one), the
+  strongest are kept, and each class owns the block of values between the valleys that
+  separate it from its neighbours. Blocks tile the value axis, so inside a region every pair
+  lies in its block and only pairs across a boundary fall outside: regions are coherent and
+  just their boundaries stay unsegmented.
+* ``disc``: the disc of radius r around (g, g), r the peak's half-width at half-maximum
+  times ``radius_scale``, cut to the values nearer to g than to any other peak.
+
+A pixel joins class k when at least ``min_votes`` of its 4 neighbour pairs fall in region k
+(borders reflected); otherwise it stays **unsegmented** (label 0, drawn black).
 Labels 1..K are ordered by class area: 1 is the largest class.
 
 Fast labelling: each value v of class k is coded as u(v) = 32 k + q(v), with
-q(v) = round(15 (v - g)^2 / r^2) <= 15 (one lookup table), and w(v) = 32 k + 16 - q(v) is
+q(v) = round(15 (v - g)^2 / r^2) <= 15 (one lookup table; q = 0 throughout a block), and w(v) = 32 k + 16 - q(v) is
 derived from u by bit arithmetic. A pair (a, b) lies in the disc of a common class exactly
 when the saturating difference w(b) - u(a) is in 1..16, so the test is two SIMD passes per
 direction (the disc edge is resolved to r^2 / 15). Values in no disc get u = 240, whose w is
@@ -20,6 +28,8 @@ direction (the disc edge is resolved to r^2 / 15). Values in no disc get u = 240
 
 from __future__ import annotations
 
+import dataclasses
+import itertools
 from dataclasses import dataclass
 
 import cv2
@@ -40,15 +50,30 @@ _NONE = 240
 
 @dataclass(frozen=True)
 class PlaneClass:
-    """One class of a plane: a disc on the co-occurrence diagonal."""
+    """One class of a plane: a peak on the co-occurrence diagonal and its values."""
 
     center: int
     """Grey value of the diagonal peak, in the (possibly hue-rotated) segmented coding."""
     radius: int
+    """Disc radius; for a block, the larger distance from the peak to a block end."""
     height: float
     """Height of the smoothed diagonal profile at the peak."""
     area: int = 0
     """Number of pixels labelled with this class."""
+    lo: int = -1
+    hi: int = -1
+    """Values lo..hi (segmented coding) form the class's block; -1: a disc."""
+
+    @property
+    def is_block(self) -> bool:
+        return self.lo >= 0
+
+    @property
+    def span(self) -> tuple[int, int]:
+        """The values the class can hold (its block, or its disc's extent), inclusive."""
+        if self.is_block:
+            return self.lo, self.hi
+        return max(0, self.center - self.radius), min(255, self.center + self.radius)
 
 
 @dataclass(frozen=True)
@@ -63,6 +88,10 @@ class Segmentation:
     """(256, 256) float32 symmetric pair counts (before smoothing), for plots."""
     offset: int = 0
     """The plane was segmented as (value + offset) mod 256 (hue rotation)."""
+    values: np.ndarray | None = None
+    """(M, N) uint8: the plane in segmented coding (after the rotation)."""
+    profile: np.ndarray | None = None
+    """(256,) float64: the smoothed diagonal profile, the density of region interiors."""
 
     @property
     def k(self) -> int:
@@ -160,8 +189,9 @@ def find_classes(hist: np.ndarray, params: VisionParams) -> tuple[PlaneClass, ..
     hist : (256, 256) float ndarray
         Symmetric pair counts from :func:`cooccurrence_histogram`.
     params : VisionParams
-        Uses ``cooc_sigma``, ``diag_band``, ``max_classes``, ``min_class_fraction``,
-        ``radius_scale``, ``radius_min`` and ``radius_max``.
+        Uses ``class_shape``, ``cooc_sigma``, ``diag_band``, ``max_classes``,
+        ``min_class_fraction``, and ``min_persistence`` (blocks) or ``radius_scale``,
+        ``radius_min`` and ``radius_max`` (discs).
 
     Returns
     -------
@@ -172,18 +202,36 @@ def find_classes(hist: np.ndarray, params: VisionParams) -> tuple[PlaneClass, ..
     --------
     >>> from daemon.vision.params import PAPER
     >>> plane = np.repeat(np.array([[40] * 30 + [200] * 10], np.uint8), 20, axis=0)
-    >>> [(c.center, c.radius) for c in find_classes(cooccurrence_histogram(plane), PAPER)]
+    >>> [(c.center, c.lo, c.hi) for c in find_classes(cooccurrence_histogram(plane), PAPER)]
+    [(40, 0, 120), (200, 121, 255)]
+    >>> disc = PAPER.replace(class_shape="disc")
+    >>> [(c.center, c.radius) for c in find_classes(cooccurrence_histogram(plane), disc)]
     [(40, 3), (200, 3)]
     """
+    prof, smooth = _profile(hist, params)
+    return _classes(prof, smooth, params)
+
+
+def _profile(hist: np.ndarray, params: VisionParams) -> tuple[np.ndarray, np.ndarray]:
+    """(diagonal profile, smoothed histogram)."""
     if hist.shape != (256, 256):
         raise ValueError(f"expected a (256, 256) histogram, got {hist.shape}")
     smooth = hist.astype(np.float32)
     if params.cooc_sigma > 0:
         smooth = cv2.GaussianBlur(smooth, (0, 0), params.cooc_sigma)
-    prof = _diagonal_profile(smooth, params.diag_band)
-    mass = prof.sum()
-    if mass <= 0:
+    return _diagonal_profile(smooth, params.diag_band), smooth
+
+
+def _classes(prof: np.ndarray, smooth: np.ndarray, params: VisionParams) -> tuple[PlaneClass, ...]:
+    if prof.sum() <= 0:
         return ()
+    if params.class_shape == "block":
+        return _blocks(prof, smooth, params)
+    return _discs(prof, params)
+
+
+def _discs(prof: np.ndarray, params: VisionParams) -> tuple[PlaneClass, ...]:
+    mass = prof.sum()
     left = np.concatenate([[-1.0], prof[:-1]])
     right = np.concatenate([prof[1:], [-1.0]])
     maxima = np.flatnonzero((prof > 0) & (prof >= left) & (prof > right))
@@ -203,13 +251,74 @@ def find_classes(hist: np.ndarray, params: VisionParams) -> tuple[PlaneClass, ..
     return tuple(chosen)
 
 
+def _persistence(prof: np.ndarray) -> dict[int, float]:
+    """Each local maximum of a 1-D profile and its persistence: how far the profile falls
+    from it before reaching a higher maximum (0-dimensional persistent homology of the
+    superlevel sets; the highest maximum gets its full height)."""
+    owner = np.full(len(prof), -1)
+    peaks: dict[int, float] = {}
+    for i in sorted(range(len(prof)), key=lambda v: (-prof[v], v)):
+        if prof[i] <= 0:
+            break
+        sides = {int(owner[j]) for j in (i - 1, i + 1) if 0 <= j < len(prof) and owner[j] >= 0}
+        if not sides:
+            owner[i] = i
+            continue
+        top = min(sides, key=lambda g: (-prof[g], g))
+        for g in sides - {top}:  # the lower maximum dies here, at saddle height prof[i]
+            peaks[g] = float(prof[g] - prof[i])
+            owner[owner == g] = top
+        owner[i] = top
+    for g in set(owner[owner >= 0].tolist()) - set(peaks):
+        peaks[int(g)] = float(prof[g])
+    return peaks
+
+
+def _valley(prof: np.ndarray, a: int, b: int) -> int:
+    """The last value of the left block between maxima a < b: the middle of the lowest run."""
+    seg = prof[a : b + 1]
+    low = np.flatnonzero(seg <= seg.min() + 1e-9 * max(seg.max(), 1e-30))
+    runs = np.split(low, np.flatnonzero(np.diff(low) > 1) + 1)
+    deepest = runs[len(runs) // 2]
+    return a + int((deepest[0] + deepest[-1]) // 2)
+
+
+def _blocks(prof: np.ndarray, smooth: np.ndarray, params: VisionParams) -> tuple[PlaneClass, ...]:
+    persistence = _persistence(prof)
+    kept = sorted(
+        (g for g, p in persistence.items() if p >= params.min_persistence * prof[g]),
+        key=lambda g: (-persistence[g], g),
+    )[: params.max_classes]
+    # A block's mass is the pair count inside its square; light blocks merge into a
+    # neighbour (their maximum is dropped and the valleys are drawn again) until all count.
+    cum = np.pad(smooth.astype(np.float64).cumsum(0).cumsum(1), ((1, 0), (1, 0)))
+    total = cum[-1, -1]
+    while True:
+        centres = sorted(kept)
+        ends = [_valley(prof, a, b) for a, b in itertools.pairwise(centres)]
+        bounds = list(zip([0, *(e + 1 for e in ends)], [*ends, 255], strict=True))
+        masses = [
+            cum[hi + 1, hi + 1] - cum[lo, hi + 1] - cum[hi + 1, lo] + cum[lo, lo]
+            for lo, hi in bounds
+        ]
+        lightest = int(np.argmin(masses))
+        if len(kept) == 1 or masses[lightest] >= params.min_class_fraction * total:
+            break
+        kept.remove(centres[lightest])
+    by_height = sorted(zip(centres, bounds, strict=True), key=lambda cb: (-prof[cb[0]], cb[0]))
+    return tuple(
+        PlaneClass(g, max(g - lo, hi - g), float(prof[g]), lo=lo, hi=hi)
+        for g, (lo, hi) in by_height
+    )
+
+
 def _value_tables(
     classes: tuple[PlaneClass, ...], value_counts: np.ndarray
 ) -> tuple[list[int], np.ndarray]:
     """Number the classes and code the values: (order, per-value u code).
 
-    A value belongs to the nearest peak whose disc holds it (ties: the higher peak, i.e. the
-    earlier in ``classes``). Ids 1..K number the classes by expected area, the count of their
+    A value belongs to its block, or to the nearest peak whose disc holds it (ties: the
+    higher peak, i.e. the earlier in ``classes``). Ids 1..K number the classes by expected area, the count of their
     values (``order[id - 1]`` indexes ``classes``), so the final ranking by exact area is
     usually the identity and costs no relabelling pass. A value in no disc gets ``_NONE``.
     """
@@ -218,6 +327,9 @@ def _value_tables(
     nearest = np.zeros(256, np.int64)
     q = np.zeros(256, np.int64)
     for k, c in enumerate(classes, start=1):
+        if c.is_block:
+            nearest[c.lo : c.hi + 1] = k
+            continue
         dist = np.abs(values - c.center)
         inside = (dist <= c.radius) & (dist < best)
         best[inside] = dist[inside]
@@ -312,9 +424,10 @@ def segment_plane(
     # numpy uint8 addition wraps modulo 256, which is the hue rotation we want.
     coded = plane if offset % 256 == 0 else plane + np.uint8(offset % 256)
     hist = cooccurrence_histogram(coded, mask, params.cooc_max_pairs)
-    peaks = find_classes(hist, params)
+    prof, smooth = _profile(hist, params)
+    peaks = _classes(prof, smooth, params)
     if not peaks:
-        return Segmentation(np.zeros(plane.shape, np.uint8), (), hist, offset % 256)
+        return Segmentation(np.zeros(plane.shape, np.uint8), (), hist, offset % 256, coded, prof)
     order, u_lut = _value_tables(peaks, hist.sum(axis=1))
     classes = [peaks[i] for i in order]
     u = cv2.LUT(coded, u_lut)
@@ -342,8 +455,5 @@ def segment_plane(
         to_rank[i + 1] = rank
     identity = ranked_ids == list(range(len(classes)))
     labels = raw if identity else cv2.LUT(raw, to_rank)
-    ranked = tuple(
-        PlaneClass(classes[i].center, classes[i].radius, classes[i].height, areas[i])
-        for i in ranked_ids
-    )
-    return Segmentation(labels, ranked, hist, offset % 256)
+    ranked = tuple(dataclasses.replace(classes[i], area=areas[i]) for i in ranked_ids)
+    return Segmentation(labels, ranked, hist, offset % 256, coded, prof)

@@ -1,9 +1,17 @@
 """Interest map (weighted sum of the uncommon maps, Gaussian-blurred) and interest points.
 
-B is taken as the Gaussian **sigma**, in analysed-image pixels (``blur_mode="fwhm"`` reads it
-as the full width at half maximum instead). Why sigma: on the seed's 108x192 mosaic of
-36x48 tiles, a kernel only 10 px wide (sigma ~ 1.7) would barely merge segments, while
-sigma = 10 gives blobs on the scale of a tile, which is what the published maps show.
+B is read as the full width at half maximum (``blur_mode="fwhm"``, sigma = B / 2.355) or as
+the Gaussian sigma, in analysed-image pixels, or as a fraction of the image diagonal
+(``blur_fraction``). The seed does not say; on its own case (a 108x192 cliff with wet stains
+of 1-2 % of the image, ~10 px across) the sigma reading smears each stain below the
+bed-scale structure around it, while the FWHM reading keeps it (``bench.quality``, seed).
+
+Points are peaks at least B apart. With ``valley`` > 0 two peaks are one target unless the
+map dips below ``valley`` x the lower peak between them (a persistence test, free of any
+size guess), so three points are three targets from a 5 px spot to a patch of 15 % of the
+image; each point's radius is the size of its own patch. Optionally (``isotropy``) the
+blurred interest is scaled by the roundness of its surroundings, which takes long ledge
+shadows off the top of the list.
 
 Speed without approximation worth the name: a sigma-B blur removes everything above
 ~1/(2 pi B) cycles/px, so the sum map is first averaged over f x f blocks (f a power of two
@@ -22,7 +30,7 @@ import numpy as np
 
 from .cooccurrence import Segmentation
 from .params import VisionParams
-from .uncommon import uncommon_values
+from .uncommon import uncommon_map, uncommon_values
 
 __all__ = ["InterestMap", "InterestPoint", "explain_point", "find_points", "interest_map"]
 
@@ -38,6 +46,9 @@ class InterestMap:
     factor: int
     shape: tuple[int, int]
     """(M, N) of the analysed image."""
+    blurred: np.ndarray | None = None
+    """The plain blurred sum when ``grid`` is reshaped by ``isotropy``: targets are its
+    patches (a ring of roundness must not split one target into two)."""
 
     def full(self) -> np.ndarray:
         """The map at the analysed image's resolution, (M, N) float32."""
@@ -61,6 +72,8 @@ class InterestPoint:
     x: float
     y: float
     score: float
+    radius: float = 0.0
+    """The size of what the point found (analysed pixels): no other point lies within it."""
 
 
 def _factor(sigma: float, shape: tuple[int, int], exact: bool) -> int:
@@ -72,24 +85,13 @@ def _factor(sigma: float, shape: tuple[int, int], exact: bool) -> int:
     return f
 
 
-def summed_uncommon(
-    segs: tuple[Segmentation, ...], params: VisionParams
-) -> tuple[np.ndarray, float]:
-    """The weighted sum of the uncommon maps as uint8 in fixed point; returns (map, scale)."""
-    weights = params.plane_weights
-    scale = min(10.0, 255.0 / (8.0 * max(sum(weights), 1e-9)))
-    tables = [
-        np.clip(np.rint(uncommon_values(seg, params) * weight * scale), 0, 255).astype(np.uint8)
-        for seg, weight in zip(segs, weights, strict=True)
-    ]
-    # Labels are 0..8, so two planes' labels fit one byte (h * 16 + s) and one lookup serves
-    # both: 16 x 16 entries of t_h + t_s, saturated as cv2.add would.
-    pair = np.minimum(tables[0][:16, None].astype(np.int64) + tables[1][None, :16], 255)
-    pair = pair.astype(np.uint8)
-    packed = np.multiply(segs[0].labels, np.uint8(16))  # numpy's uint8 multiply is SIMD
-    cv2.bitwise_or(packed, segs[1].labels, dst=packed)
-    total = cv2.LUT(packed, pair.ravel())
-    return cv2.add(total, cv2.LUT(segs[2].labels, tables[2])), scale
+def summed_uncommon(segs: tuple[Segmentation, ...], params: VisionParams) -> np.ndarray:
+    """The weighted sum of the H, S, I uncommon maps, (M, N) float32."""
+    total = np.zeros(segs[0].labels.shape, np.float32)
+    for seg, weight in zip(segs, params.plane_weights, strict=True):
+        if weight:
+            cv2.scaleAdd(uncommon_map(seg, params), weight, total, dst=total)
+    return total
 
 
 def interest_map(segs: tuple[Segmentation, ...], params: VisionParams) -> InterestMap:
@@ -100,7 +102,8 @@ def interest_map(segs: tuple[Segmentation, ...], params: VisionParams) -> Intere
     segs : tuple of three Segmentation
         H, S, I segmentations of the same image.
     params : VisionParams
-        Uses ``plane_weights``, ``blur``, ``blur_mode``, ``exact_blur`` and the uncommon mode.
+        Uses ``plane_weights``, the blur fields, ``isotropy``, ``exact_blur`` and
+        the uncommon fields.
 
     Returns
     -------
@@ -112,32 +115,29 @@ def interest_map(segs: tuple[Segmentation, ...], params: VisionParams) -> Intere
     >>> from daemon.vision.params import PAPER
     >>> plane = np.full((60, 60), 40, np.uint8)
     >>> plane[25:35, 25:35] = 200
-    >>> seg = segment_plane(plane, PAPER)
-    >>> imap = interest_map((seg, seg, seg), PAPER)
+    >>> seg = segment_plane(plane, PAPER.replace(blur_mode="sigma"))
+    >>> imap = interest_map((seg, seg, seg), PAPER.replace(blur_mode="sigma"))
     >>> imap.factor, imap.grid.shape, imap.full().shape
     (4, (15, 15), (60, 60))
     >>> bool(imap.full()[30, 30] > imap.full()[5, 5])
     True
     """
-    total, scale = summed_uncommon(segs, params)
+    total = summed_uncommon(segs, params)
     rows, cols = total.shape
-    sigma = params.sigma
+    sigma = params.sigma((rows, cols))
     f = _factor(sigma, (rows, cols), params.exact_blur)
     if f > 1:
         pad_r, pad_c = (-rows) % f, (-cols) % f
         if pad_r or pad_c:
             total = cv2.copyMakeBorder(total, 0, pad_r, 0, pad_c, cv2.BORDER_REFLECT_101)
-        small = cv2.resize(
+        total = cv2.resize(
             total, (total.shape[1] // f, total.shape[0] // f), interpolation=cv2.INTER_AREA
         )
-        summed = small.astype(np.float32)
-    else:
-        summed = total.astype(np.float32)
-    grid = _blur(summed, sigma, f)
-    if params.blob:
-        grid = _blob_strength(grid, sigma / f)
-    grid *= 1.0 / scale
-    return InterestMap(grid, f, (rows, cols))
+    blurred = _blur(total, sigma, f)
+    if params.isotropy == 0:
+        return InterestMap(blurred, f, (rows, cols))
+    grid = blurred * _roundness(blurred, sigma / f, params.isotropy)
+    return InterestMap(grid, f, (rows, cols), blurred)
 
 
 def _blur(grid: np.ndarray, sigma: float, f: int) -> np.ndarray:
@@ -146,24 +146,25 @@ def _blur(grid: np.ndarray, sigma: float, f: int) -> np.ndarray:
     return cv2.GaussianBlur(grid, (0, 0), residual, borderType=cv2.BORDER_REFLECT_101)
 
 
-def _blob_strength(blurred: np.ndarray, sigma: float) -> np.ndarray:
-    """sigma^2 max(0, -lambda_max) of the Hessian: how strongly the map curves down in its
-    *least* curved direction. Scale-normalised, so it is the same on the decimated grid (in
-    grid pixels) as at full resolution; a disc of height h and radius 1.5 to 2.5 sigma
-    keeps h / 4 to h / 3, a straight ridge gets 0 however high it is."""
+def _curvatures(smooth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The Hessian's eigenvalues (larger, smaller) at every cell of a smooth map."""
     border = cv2.BORDER_REFLECT_101
-    lxx = cv2.Sobel(blurred, cv2.CV_32F, 2, 0, ksize=3, scale=0.25, borderType=border)
-    lyy = cv2.Sobel(blurred, cv2.CV_32F, 0, 2, ksize=3, scale=0.25, borderType=border)
-    lxy = cv2.Sobel(blurred, cv2.CV_32F, 1, 1, ksize=3, scale=0.25, borderType=border)
-    half_diff = cv2.subtract(lxx, lyy)
-    half_diff *= 0.5
-    radius = cv2.magnitude(half_diff, lxy)
-    mean = cv2.add(lxx, lyy)
-    mean *= 0.5
-    # -lambda_max = -(mean + radius); keep only where both curvatures point down.
-    strength = cv2.add(mean, radius)
-    strength *= -(sigma**2)
-    return cv2.max(strength, 0.0)
+    lxx = cv2.Sobel(smooth, cv2.CV_32F, 2, 0, ksize=3, scale=0.25, borderType=border)
+    lyy = cv2.Sobel(smooth, cv2.CV_32F, 0, 2, ksize=3, scale=0.25, borderType=border)
+    lxy = cv2.Sobel(smooth, cv2.CV_32F, 1, 1, ksize=3, scale=0.25, borderType=border)
+    radius = cv2.magnitude(cv2.subtract(lxx, lyy) * 0.5, lxy)
+    mean = cv2.add(lxx, lyy) * 0.5
+    return mean + radius, mean - radius
+
+
+def _roundness(blurred: np.ndarray, sigma: float, share: float) -> np.ndarray:
+    """1 - share + share x iso, iso = lambda_max / lambda_min where the map at twice the
+    blur curves down in every direction (a cap): 1 on a round patch, 0 along a ridge or on a
+    slope, whatever the height."""
+    wider = cv2.GaussianBlur(blurred, (0, 0), math.sqrt(3.0) * sigma)
+    lmax, lmin = _curvatures(wider)
+    iso = np.where(lmin < 0, np.clip(lmax / np.minimum(lmin, -1e-12), 0.0, 1.0), 0.0)
+    return (1.0 - share + share * iso).astype(np.float32)
 
 
 def _refine(grid: np.ndarray, r: int, c: int) -> tuple[float, float]:
@@ -180,10 +181,15 @@ def _refine(grid: np.ndarray, r: int, c: int) -> tuple[float, float]:
 
 
 def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
-    """Pick the ``top_n`` highest peaks at least ``separation`` pixels apart.
+    """Pick the ``top_n`` highest peaks, each at least ``separation`` from the others and,
+    with ``valley`` > 0, on a patch of its own.
 
     A peak is a local maximum over a (2 d + 1)^2 window (d = separation) that stands above
-    the map's minimum: a flat map (no contrast) yields no points.
+    the map's minimum: a flat map (no contrast) yields no points. A peak's patch is the
+    connected part of the map above ``valley`` x its height that holds it; a peak whose
+    patch holds a chosen point is that point's target again. A point's radius is that of a
+    disc of its patch's area (the separation without ``valley``). Patches are taken on the
+    plain blurred map when ``grid`` was reshaped by ``isotropy``.
 
     Examples
     --------
@@ -191,14 +197,20 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     >>> grid[10, 10], grid[30, 28], grid[12, 12] = 5.0, 3.0, 4.0
     >>> from daemon.vision.params import PAPER
     >>> pts = find_points(InterestMap(grid, 1, (40, 40)), PAPER.replace(blur=5.0))
-    >>> [(p.rank, p.x, p.y, p.score) for p in pts]
-    [(1, 10.0, 10.0, 5.0), (2, 28.0, 30.0, 3.0)]
+    >>> [(p.rank, p.x, p.y, p.score, p.radius) for p in pts]
+    [(1, 10.0, 10.0, 5.0, 5.0), (2, 28.0, 30.0, 3.0, 5.0)]
+    >>> ridge = np.zeros((20, 60), np.float32)
+    >>> ridge[10, 5:55] = 1.0
+    >>> ridge[10, [10, 45]] = 1.2                   # two bumps on one ridge: one target
+    >>> pts = find_points(InterestMap(ridge, 1, (20, 60)), PAPER.replace(blur=3.0, valley=0.5))
+    >>> [(p.x, p.y) for p in pts]
+    [(10.0, 10.0)]
     """
     grid = imap.grid
     if params.top_n == 0 or grid.size == 0:
         return []
     f = imap.factor
-    sep = params.separation / f
+    sep = params.separation(imap.shape) / f
     d = max(1, round(sep))
     local = cv2.dilate(grid, np.ones((2 * d + 1, 2 * d + 1), np.uint8))
     floor = float(grid.min())
@@ -213,23 +225,39 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     best = min(len(values), 32 * params.top_n)
     cut = np.partition(values, len(values) - best)[len(values) - best] if best else 0.0
     first = values >= cut
-    chosen: list[InterestPoint] = []
+    chosen: list[tuple[int, int, float, float]] = []  # row, col, value, radius (grid)
     for subset in (np.flatnonzero(first), np.flatnonzero(~first)):
         order = subset[np.lexsort((cols[subset], rows[subset], -values[subset]))]
         for i in order:
-            r, c = int(rows[i]), int(cols[i])
-            if any((r - p.y) ** 2 + (c - p.x) ** 2 < sep * sep for p in chosen):
+            r, c, value = int(rows[i]), int(cols[i]), float(values[i])
+            if any((r - y) ** 2 + (c - x) ** 2 < sep * sep for y, x, _, _ in chosen):
                 continue
-            chosen.append(InterestPoint(len(chosen) + 1, float(c), float(r), float(values[i])))
+            radius = sep
+            if params.valley > 0:
+                support = grid if imap.blurred is None else imap.blurred
+                level = params.valley * float(support[r, c])
+                patch = _patch(support, r, c, level)
+                if any(patch[y, x] for y, x, _, _ in chosen):
+                    continue
+                radius = max(1.0, math.sqrt(float(patch.sum()) / math.pi))
+            chosen.append((r, c, value, radius))
             if len(chosen) == params.top_n:
                 break
         if len(chosen) == params.top_n:
             break
     out = []
-    for p in chosen:
-        ry, rx = _refine(grid, int(p.y), int(p.x))
-        out.append(InterestPoint(p.rank, rx * f + (f - 1) / 2.0, ry * f + (f - 1) / 2.0, p.score))
+    for rank, (r, c, value, radius) in enumerate(chosen, start=1):
+        ry, rx = _refine(grid, r, c)
+        x, y = rx * f + (f - 1) / 2.0, ry * f + (f - 1) / 2.0
+        out.append(InterestPoint(rank, x, y, value, radius * f))
     return out
+
+
+def _patch(grid: np.ndarray, r: int, c: int, level: float) -> np.ndarray:
+    """bool mask of the connected part of ``grid >= level`` (8-connected) holding (r, c)."""
+    above = (grid >= level).astype(np.uint8)
+    _, labels = cv2.connectedComponents(above, connectivity=8)
+    return labels == labels[r, c]
 
 
 def explain_point(
@@ -241,8 +269,8 @@ def explain_point(
     uncommon map around the point, which is exactly what the blur summed) and the class that
     contributed most there (rank k of K, its value and its share of the image).
     """
-    sigma = params.sigma
     rows, cols = segs[0].labels.shape
+    sigma = params.sigma((rows, cols))
     rad = max(1, math.ceil(2.5 * sigma))
     x, y = round(point.x), round(point.y)
     r0, r1 = max(0, y - rad), min(rows, y + rad + 1)

@@ -9,12 +9,14 @@ one benchmark run.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from typing import Any, Literal
 
 UncommonMode = Literal["rank", "spread", "surprisal"]
 BlurMode = Literal["sigma", "fwhm"]
 HueGrey = Literal["zero", "unsegmented", "class"]
+ClassShape = Literal["block", "disc"]
 
 
 @dataclass(frozen=True)
@@ -26,12 +28,12 @@ class VisionParams:
     """Gaussian sigma (pixels) applied to the colour image before HSI; 0 = off."""
 
     # HSI conversion
-    grey_saturation: int = 5
+    grey_saturation: int = 32
     """S (0..255) below which hue is undefined (grey pixel)."""
     hue_min_intensity: int = 0
     """I (0..255) below which hue is undefined too: hue noise grows as 1 / I in the dark."""
     hue_grey: HueGrey = "zero"
-    """Hue of grey pixels. zero: H = 0, as 2004-era code did; unsegmented: kept out of the
+    """Hue of grey pixels (S < ``grey_saturation``). zero: H = 0, as 2004-era code did; unsegmented: kept out of the
     hue segmentation; class: given the emptiest hue code, so grey is a hue class of its own
     whose rarity counts like any other (a white vein in red rock is rare in H too)."""
     hue_rotate: bool = False
@@ -40,15 +42,23 @@ class VisionParams:
     # Co-occurrence histogram
     cooc_max_pairs: int = 1 << 22
     """Above this many neighbour pairs the histogram is estimated on a regular row lattice."""
-    cooc_sigma: float = 2.0
+    cooc_sigma: float = 3.0
     """Gaussian smoothing of the 256x256 histogram, in bins."""
     diag_band: int = 1
     """Diagonal profile d(g) sums cells with |i - j| <= diag_band."""
 
     # Classes (peaks on the diagonal)
+    class_shape: ClassShape = "block"
+    """block: values between the valleys around a peak (Haddon & Boyce); disc: a disc of
+    radius ``radius_scale`` x HWHM around the peak (see ``cooccurrence``)."""
     max_classes: int = 8
     min_class_fraction: float = 0.005
-    """A diagonal peak holding less than this fraction of the diagonal mass is not a class."""
+    """A class holding less than this fraction of the pairs (its block's square, or its
+    disc's diagonal mass) is not a class; a light block merges into a neighbour."""
+    min_persistence: float = 0.5
+    """block: a diagonal maximum is a class only if the profile falls by this fraction of the
+    maximum's own height before it meets a higher one: a ripple on a noisy peak is no class,
+    a small peak of its own (a stain of 1 % of the pixels) is one however low."""
     radius_scale: float = 1.0
     radius_min: int = 3
     radius_max: int = 16
@@ -65,22 +75,38 @@ class VisionParams:
     """rank: 1 = largest .. K; spread: rank stretched to 1..8; surprisal: 1..8 by log area."""
     surprisal_span: float = 1000.0
     """surprisal: a class this many times smaller than the largest one scores 8."""
+    value_rarity: float = 0.0
+    """Weight of the value's own rarity, added to its class's score on segmented pixels:
+    the surprisal of the value in the diagonal profile (the density of region interiors),
+    0 at the commonest value .. 7 at ``surprisal_span`` times rarer. Classes are coarse
+    (<= 8 a plane); this grades the tail of a class, where a crack or a pit in one broad
+    class of rock lies."""
     plane_weights: tuple[float, float, float] = (1.0, 1.0, 1.0)
     """Weights of the H, S, I uncommon maps in the interest sum."""
 
     # Interest map and points
     blur: float = 10.0
     """B, in analysed-image pixels."""
-    blur_mode: BlurMode = "sigma"
+    blur_fraction: float = 0.0
+    """When > 0, B is this fraction of the analysed image's diagonal instead of ``blur``:
+    the same outcrop gives the same points at any resolution."""
+    blur_mode: BlurMode = "fwhm"
     """sigma: B is the Gaussian sigma; fwhm: B is the full width at half maximum."""
-    blob: bool = False
-    """Score compact blobs only: the interest is the scale-normalised smaller principal
-    curvature of the blurred map, sigma^2 max(0, -lambda_max). A round rare spot keeps a
-    quarter to a third of its height; a ridge (a ledge shadow or a thin bed, rare along its
-    whole length) scores 0."""
+    isotropy: float = 0.0
+    """Share of the blurred interest that depends on the shape of its surroundings: the
+    score is B-blurred interest x (1 - isotropy + isotropy x iso), iso = lambda_small /
+    lambda_large of the map's curvature at twice B (1 on a round patch, 0 along a ridge).
+    Long ledge shadows and bed contacts, rare only along their length, lose their lead over
+    compact patches, without the all-or-nothing of ``blob``."""
+    valley: float = 0.0
+    """Two peaks are one target unless the map falls below this fraction of the lower one
+    between them (0: only the separation keeps points apart, as the seed did)."""
     top_n: int = 3
     min_distance: float | None = None
     """Minimum distance between points (pixels); None means B."""
+    max_pixels: int = 0
+    """Analyse images above this many pixels at a reduced size (0: never). The points are
+    mapped back to the input; a 12 MP photo needs no ``--downsample``."""
     exact_blur: bool = False
     """Blur at full resolution instead of on the band-limited (decimated) grid."""
 
@@ -97,22 +123,31 @@ class VisionParams:
             raise ValueError("radius_scale must be > 0")
         if self.uncommon not in ("rank", "spread", "surprisal"):
             raise ValueError(f"unknown uncommon mode {self.uncommon!r}")
+        if self.class_shape not in ("block", "disc"):
+            raise ValueError(f"unknown class shape {self.class_shape!r}")
+        if not 0 <= self.min_persistence < 1:
+            raise ValueError("min_persistence must be in [0, 1)")
         if self.hue_grey not in ("zero", "unsegmented", "class"):
             raise ValueError(f"unknown hue_grey mode {self.hue_grey!r}")
+        if self.blur_fraction < 0 or self.value_rarity < 0 or not 0 <= self.isotropy <= 1:
+            raise ValueError("blur_fraction, value_rarity >= 0; isotropy in [0, 1]")
+        if not 0 <= self.valley < 1 or self.max_pixels < 0:
+            raise ValueError("valley in [0, 1), max_pixels >= 0")
         if self.blur_mode not in ("sigma", "fwhm"):
             raise ValueError(f"unknown blur mode {self.blur_mode!r}")
         if len(self.plane_weights) != 3 or min(self.plane_weights) < 0:
             raise ValueError("plane_weights needs three non-negative weights")
 
-    @property
-    def sigma(self) -> float:
-        """Gaussian sigma of the interest blur, in pixels."""
-        return self.blur if self.blur_mode == "sigma" else self.blur / 2.3548
+    def sigma(self, shape: tuple[int, int]) -> float:
+        """Gaussian sigma of the interest blur, in pixels of an image of this shape."""
+        b = self.blur_fraction * math.hypot(*shape) if self.blur_fraction > 0 else self.blur
+        return b if self.blur_mode == "sigma" else b / 2.3548
 
-    @property
-    def separation(self) -> float:
-        """Minimum distance between interest points, in pixels."""
-        return self.blur if self.min_distance is None else self.min_distance
+    def separation(self, shape: tuple[int, int]) -> float:
+        """Minimum distance between interest points, in pixels of an image of this shape."""
+        if self.min_distance is not None:
+            return self.min_distance
+        return self.blur_fraction * math.hypot(*shape) if self.blur_fraction > 0 else self.blur
 
     def replace(self, **changes: Any) -> VisionParams:
         """Return a copy with some fields changed (validated again)."""
@@ -126,30 +161,36 @@ PAPER = VisionParams()
 """The seed's stated choices; proposals of ``algorithm.md`` where the seed is silent."""
 
 DEFAULT = VisionParams(
+    grey_saturation=5,
     hue_grey="class",
     hue_rotate=True,
-    radius_scale=4.0,
-    radius_max=32,
+    cooc_sigma=2.0,
+    min_persistence=0.2,
     min_votes=2,
-    min_class_fraction=0.0002,
     relax_passes=1,
+    min_class_fraction=0.0002,
     uncommon="surprisal",
-    blur=3.0,
-    blob=True,
+    value_rarity=0.5,
+    blur_mode="sigma",
+    blur_fraction=0.01,
+    isotropy=0.75,
+    valley=0.7,
+    max_pixels=1 << 19,
 )
 """Our best uncommon-map variant. Each departure from ``PAPER`` was chosen on tuning scenes
-(seeds 1000+) of ``bench/quality.py`` and is reported on other seeds (0..119):
+and images (``bench/quality.py`` seeds 1000+, ``bench/real.py``) and is reported on others:
 
-* grey pixels form their own hue class instead of hue 0 (white and grey targets score in H);
-* hue rotated so red rocks do not straddle the 0/360 cut;
-* disc radius 4 x HWHM (up to 32): the seed's HWHM disc holds half of a noisy region's pairs
-  and leaves a small target's pixels unsegmented (uncommon 0), so the target scores below
-  its host; the nearest-peak rule still keeps discs apart;
-* 2 of 4 neighbour pairs suffice, classes down to 0.02 % of the pairs, one relaxation pass;
-* surprisal uncommon values: a tiny class scores far above a mid-sized one;
-* B = 3 px, the blob scale of a target worth walking to (B = 10 smears a 5 px target below
-  a wide, moderately rare bed), and blob scoring: ledge shadows, the decoys the seed papers
-  complain about, are long and thin, while stains, plants and nodules are compact.
+* the same coherent block segmentation, but 2 of 4 neighbour pairs suffice, one relaxation
+  pass and classes down to 0.02 % of the pairs, so thin veins and small spots are labelled;
+* grey pixels form their own hue class (a white vein in red rock is rare in H too), and hue
+  is rotated so red rocks do not straddle the 0/360 cut;
+* surprisal uncommon values, continuous in class area, plus half the rarity of the value
+  itself within its plane (the dark tail of one broad class: a crack, a pit);
+* B = 1 % of the image diagonal, so the same outcrop gives the same points at any size;
+* two peaks are one target unless the map dips below 70 % of the lower one between them,
+  so three points are three targets whatever their size; 3/4 of the score depends on the roundness of the surroundings, which takes the
+  long ledge shadows the seed papers complain about off the top;
+* images above 0.5 MP are analysed at 0.5 MP (a 12 MP photo needs no flags).
 """
 
 PROFILES: dict[str, VisionParams] = {"paper": PAPER, "default": DEFAULT}

@@ -96,9 +96,10 @@ def analyze(bgr: np.ndarray, params: VisionParams) -> Analysis:
     if params.hue_grey == "unsegmented":
         hue_mask = hsi.hue_defined
     offset = hue_histogram_rotation(hsi.h, hsi.hue_defined) if params.hue_rotate else 0
-    if params.hue_grey == "class":
-        # Grey pixels go to code 0 after rotation by ``offset``: the emptiest hue. (uint8
-        # arithmetic wraps modulo 256, which is the rotation.)
+    if params.hue_grey != "unsegmented":
+        # Grey pixels go to code 0 after rotation by ``offset`` ("zero" rotates by 0; "class"
+        # by the emptiest hue, so grey is a class of its own). uint8 arithmetic wraps modulo
+        # 256, which is the rotation.
         rotation = np.uint8(offset)
         defined = hsi.hue_defined.view(np.uint8) * np.uint8(255)
         hue = cv2.bitwise_and(hsi.h + rotation, defined) - rotation

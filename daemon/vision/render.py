@@ -30,8 +30,9 @@ CLASS_COLOURS_RGB = (
 CLASS_COLOURS = tuple((b, g, r) for r, g, b in CLASS_COLOURS_RGB)
 """BGR colour of class k at index k - 1, in the paper's order by class area."""
 
-POINT_COLOURS = ((0, 255, 0), (255, 0, 0), (0, 0, 255))
-"""BGR: green = 1st, blue = 2nd, red = 3rd interest point."""
+POINT_COLOURS = ((0, 159, 230), (233, 180, 86), (0, 94, 213))
+"""BGR, from the Okabe-Ito palette, which colour-blind readers tell apart: orange = 1st,
+sky blue = 2nd, vermillion = 3rd interest point (each ring also carries its number)."""
 
 _LUT = np.zeros((256, 1, 3), np.uint8)
 for _k, _c in enumerate(CLASS_COLOURS, start=1):
@@ -65,7 +66,8 @@ def grey_ramp(values: np.ndarray, vmax: float | None = None) -> np.ndarray:
 
 
 def cooccurrence_plot(seg: Segmentation, size: int = 512) -> np.ndarray:
-    """The pair histogram on a log scale with each class's disc in its colour.
+    """The pair histogram on a log scale with each class's region in its colour: the block
+    of values it owns (a square on the diagonal) or its disc.
 
     Row = first value (top = 0), column = neighbour value; (size, size, 3) uint8 BGR.
     """
@@ -75,37 +77,38 @@ def cooccurrence_plot(seg: Segmentation, size: int = 512) -> np.ndarray:
     img = cv2.applyColorMap(img, cv2.COLORMAP_BONE)
     scale = size / 256.0
     for k, cls in enumerate(seg.classes, start=1):
+        colour = CLASS_COLOURS[k - 1]
+        if cls.is_block:
+            lo, hi = round(cls.lo * scale), round((cls.hi + 1) * scale) - 1
+            cv2.rectangle(img, (lo, lo), (hi, hi), colour, 2, cv2.LINE_AA)
+            continue
         centre = (round((cls.center + 0.5) * scale),) * 2
-        cv2.circle(
-            img, centre, max(2, round(cls.radius * scale)), CLASS_COLOURS[k - 1], 2, cv2.LINE_AA
-        )
+        cv2.circle(img, centre, max(2, round(cls.radius * scale)), colour, 2, cv2.LINE_AA)
     cv2.line(img, (0, 0), (size - 1, size - 1), (80, 80, 80), 1)
     return img
 
 
-def overlay(
-    bgr: np.ndarray, points: list[InterestPoint], radius: float = 10.0, scale: float = 1.0
-) -> np.ndarray:
-    """Draw the interest points on a copy of the image, best first (green, blue, red).
+def overlay(bgr: np.ndarray, points: list[InterestPoint], scale: float = 1.0) -> np.ndarray:
+    """Draw the interest points on a copy of the image, best first (``POINT_COLOURS``).
 
-    ``scale`` converts point coordinates to ``bgr`` pixels (input vs analysed image).
+    Each ring lies outside the point's radius, so it frames the target instead of hiding
+    it, and its number stands beside it. ``scale`` converts point coordinates to ``bgr``
+    pixels (input vs analysed image).
     """
     out = bgr.copy()
-    thick = max(1, round(min(out.shape[:2]) / 200))
+    rows, cols = out.shape[:2]
+    thick = max(1, round(min(rows, cols) / 300))
+    font = 0.45 * thick
     for p in points:
         colour = POINT_COLOURS[p.rank - 1] if p.rank <= len(POINT_COLOURS) else (0, 255, 255)
         centre = (round(p.x * scale), round(p.y * scale))
-        r = max(3, round(radius * scale))
+        r = max(4, round(1.25 * p.radius * scale) + 2 * thick)
         cv2.circle(out, centre, r, (0, 0, 0), thick + 2, cv2.LINE_AA)
         cv2.circle(out, centre, r, colour, thick, cv2.LINE_AA)
-        cv2.putText(
-            out,
-            str(p.rank),
-            (centre[0] + r, centre[1] - r),
-            cv2.FONT_HERSHEY_SIMPLEX,
-            0.4 * thick,
-            colour,
-            thick,
-            cv2.LINE_AA,
-        )
+        label = str(p.rank)
+        (tw, th), _ = cv2.getTextSize(label, cv2.FONT_HERSHEY_SIMPLEX, font, thick)
+        x = centre[0] + r + 2 * thick if centre[0] + r + tw + 4 * thick < cols else centre[0] - r - tw - 2 * thick
+        y = min(max(centre[1] + th // 2, th + 1), rows - 2)
+        cv2.putText(out, label, (x, y), cv2.FONT_HERSHEY_SIMPLEX, font, (0, 0, 0), thick + 2, cv2.LINE_AA)
+        cv2.putText(out, label, (x, y), cv2.FONT_HERSHEY_SIMPLEX, font, colour, thick, cv2.LINE_AA)
     return out

@@ -8,6 +8,11 @@ attract interest). Variants, all monotone in class area so still "uncommon maps"
 * ``spread``: 1 + 7 (r - 1) / (K - 1), so the rarest class always scores 8.
 * ``surprisal``: 1 + 7 log(A_1 / A_k) / log(span), clipped to 1..8, so a tiny class scores
   far above a mid-sized one instead of one rank step above it.
+
+``value_rarity`` > 0 adds, on segmented pixels, that weight times the rarity of the pixel's
+own value among region interiors (7 log(d_max / d(v)) / log(span), clipped to 0..7, d the
+smoothed diagonal profile): the dark tail of one broad class, where a crack or a pit lies,
+scores above the class's core.
 """
 
 from __future__ import annotations
@@ -18,7 +23,7 @@ import numpy as np
 from .cooccurrence import Segmentation
 from .params import VisionParams
 
-__all__ = ["uncommon_map", "uncommon_values"]
+__all__ = ["uncommon_map", "uncommon_values", "value_rarity"]
 
 
 def uncommon_values(seg: Segmentation, params: VisionParams) -> np.ndarray:
@@ -52,6 +57,25 @@ def uncommon_values(seg: Segmentation, params: VisionParams) -> np.ndarray:
     return values
 
 
+def value_rarity(seg: Segmentation, params: VisionParams) -> np.ndarray:
+    """Rarity 0..7 of each coded value among region interiors: float32 array of 256.
+
+    Examples
+    --------
+    >>> from daemon.vision.params import PAPER
+    >>> prof = np.zeros(256)
+    >>> prof[[10, 11, 12]] = [1000.0, 10.0, 1.0]
+    >>> seg = Segmentation(np.zeros((1, 1), np.uint8), (), np.zeros((256, 256)), profile=prof)
+    >>> [round(float(v), 2) for v in value_rarity(seg, PAPER)[[10, 11, 12, 13]]]
+    [0.0, 4.67, 7.0, 7.0]
+    """
+    prof = seg.profile
+    if prof is None or prof.max() <= 0:
+        return np.zeros(256, np.float32)
+    ratio = prof.max() / np.maximum(prof, prof.max() * 1e-12)
+    return (7.0 * np.clip(np.log(ratio) / np.log(params.surprisal_span), 0, 1)).astype(np.float32)
+
+
 def uncommon_map(seg: Segmentation, params: VisionParams) -> np.ndarray:
     """Score every pixel of a segmentation by the rarity of its class.
 
@@ -64,7 +88,7 @@ def uncommon_map(seg: Segmentation, params: VisionParams) -> np.ndarray:
     Returns
     -------
     (M, N) float32 ndarray
-        0 for unsegmented pixels, else 1..8.
+        0 for unsegmented pixels, else 1..8 (plus up to 7 x ``value_rarity``).
 
     Examples
     --------
@@ -77,4 +101,8 @@ def uncommon_map(seg: Segmentation, params: VisionParams) -> np.ndarray:
     [1.0, 2.0]
     """
     table = uncommon_values(seg, params).astype(np.float32)
-    return cv2.LUT(seg.labels, table)
+    umap = cv2.LUT(seg.labels, table)
+    if params.value_rarity > 0 and seg.values is not None and seg.k:
+        tail = cv2.LUT(seg.values, value_rarity(seg, params) * np.float32(params.value_rarity))
+        umap += cv2.bitwise_and(tail, tail, mask=cv2.compare(seg.labels, 0, cv2.CMP_GT))
+    return umap

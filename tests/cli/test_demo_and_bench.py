@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import json
 
+import cv2
 import numpy as np
 import pytest
 
-from bench import browser, bus, operator, ptu, quality, speed, survey
+from bench import browser, bus, operator, ptu, quality, real, speed, survey
 from daemon.demo import run_demo
-from daemon.scene import outcrop_scene
+from daemon.scene import Scene, Target, outcrop_scene
 from daemon.vision.interest import InterestPoint
 
 
@@ -25,11 +26,53 @@ def test_demo_writes_everything(tmp_path, capsys):
 
 
 def test_quality_benchmark_smoke():
-    results = quality.run(n_scenes=3, seed=0, tolerance=6.0)
-    assert set(results) == {"default", "paper", "spectral-residual", "rx-anomaly", "random"}
-    for row in results.values():
-        for key in ("top1", "any3", "precision3", "shadow3", "repeat1"):
-            assert 0.0 <= row[key] <= 1.0
+    results = quality.run(n_scenes=2, seed=0, tolerance=6.0)
+    assert list(results) == ["tiny", "seed", "large", "veins", "empty"]
+    for table in results.values():
+        assert set(table) == {"default", "paper", "spectral-residual", "rx-anomaly", "random"}
+        for row in table.values():
+            for key in ("top1", "any3", "precision3", "shadow3", "decoy1", "distinct3", "repeat1"):
+                assert 0.0 <= row[key] <= 1.0
+    # Nothing to hit in an empty scene.
+    assert all(row["any3"] == 0.0 for row in results["empty"].values())
+
+
+def test_quality_cli_runs_chosen_regimes_and_prints_a_verdict_each(capsys):
+    assert quality.main(["--regimes", "seed,empty", "--scenes", "1", "--json"]) == 0
+    assert list(json.loads(capsys.readouterr().out)) == ["seed", "empty"]
+    assert quality.main(["--regimes", "seed,empty", "--scenes", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "108x192, tolerance 3.7 px" in out
+    assert [line.split()[0] for line in out.splitlines()[-2:]] == ["seed", "empty"]
+    with pytest.raises(SystemExit):
+        quality.main(["--regimes", "nope", "--scenes", "1"])
+
+
+def test_quality_distinct3_counts_objects_hit_twice_not_points():
+    labels = np.zeros((60, 80), np.uint8)
+    labels[10:14, 10:14] = 1
+    labels[40:44, 60:64] = 2
+    shadow = np.zeros((60, 80), bool)
+    shadow[30:34, 5:45] = True  # one decoy component, 40 px long
+    targets = (Target("red_spot", 11.5, 11.5, 2.0), Target("plant", 61.5, 41.5, 2.0))
+    gt = quality.truth(Scene(np.zeros((60, 80, 3), np.uint8), targets, labels, shadow, 0), 6.0)
+
+    def score(*xy):
+        points = [InterestPoint(i + 1, x, y, 1.0) for i, (x, y) in enumerate(xy)]
+        return quality.score_scene(gt, points)
+
+    # Two targets and the shadow: three objects.
+    assert score((12, 12), (61, 41), (20, 32))["distinct3"] == 1.0
+    # Two points on target 1 (one of them 5 px off its edge, still a hit).
+    both = score((12, 12), (18, 12), (61, 41))
+    assert both["distinct3"] == 0.0 and both["precision3"] == 1.0
+    # Two points along one shadow, 30 px apart; the first is a decoy@1.
+    decoyed = score((8, 32), (38, 32), (12, 12))
+    assert decoyed["distinct3"] == 0.0 and decoyed["decoy1"] == 1.0
+    assert decoyed["shadow3"] == pytest.approx(2 / 3)
+    # Misses never collide, and a point near the shadow but off it is assigned to it.
+    assert score((70, 5), (72, 8), (20, 37))["distinct3"] == 1.0
+    assert score((20, 37), (22, 31), (70, 5))["distinct3"] == 0.0
 
 
 def test_second_looks_are_fresh_but_reproducible_and_repeats_compares_best_points():
@@ -45,6 +88,88 @@ def test_second_looks_are_fresh_but_reproducible_and_repeats_compares_best_point
     assert quality.repeats([here], [InterestPoint(1, 13.0, 14.0, 0.5), there], 6.0)
     assert not quality.repeats([here], [there, here], 6.0)
     assert not quality.repeats([], [here], 6.0)
+
+
+def _toy_set(root, names=("a.png", "b.png")):
+    """A one-set data folder: grey 100x100 images, a bright 5x5 target, its mask."""
+    folder = root / "toy"
+    for sub in ("images", "masks", "masks_part"):
+        (folder / sub).mkdir(parents=True)
+    rows = ["name\ttag\tmask_share"]
+    for k, name in enumerate(names):
+        image = np.full((100, 100), 100, np.uint8)
+        mask = np.zeros((100, 100), np.uint8)
+        r, c = 20 + 40 * k, 30
+        image[r : r + 5, c : c + 5] = 220
+        mask[r : r + 5, c : c + 5] = 255
+        cv2.imwrite(str(folder / "images" / name), image)
+        cv2.imwrite(str(folder / "masks" / name), mask)
+        part = np.zeros_like(mask)
+        part[99, 99] = 255  # a "target" in the far corner only
+        cv2.imwrite(str(folder / "masks_part" / name), part)
+        rows.append(f"{name}\t\t0.0025")
+    (folder / "manifest.tsv").write_text("\n".join(rows) + "\n")
+    return folder
+
+
+def test_real_benchmark_hit_rule_on_a_synthetic_mask(tmp_path):
+    folder = _toy_set(tmp_path)
+    mask = cv2.imread(str(folder / "masks" / "a.png"), cv2.IMREAD_UNCHANGED)
+    near = real.near_mask(mask)  # radius 1.5 % of the 141.4 px diagonal = 2.12 px
+    pt = [InterestPoint(1, x, y, 1.0) for x, y in [(36.4, 22), (37, 22), (36, 26), (150, 120)]]
+    # 2 px right of the target: hit; 3 px: miss; (2, 2) px diagonal = 2.83 px: miss.
+    assert real.hits(near, pt) == [True, False, False]
+    assert real.score(real.hits(near, pt)) == {"top1": 1.0, "any3": 1.0, "p3": 1 / 3}
+    assert real.score(real.hits(near, pt[1:])) == {"top1": 0.0, "any3": 0.0, "p3": 0.0}
+    # A missing point is a miss; a point outside the image is clipped onto its edge.
+    assert real.score([True]) == {"top1": 1.0, "any3": 1.0, "p3": 1 / 3}
+    corner = real.near_mask(cv2.imread(str(folder / "masks_part" / "a.png"), 0))
+    assert real.hits(corner, pt[3:]) == [True]
+
+    (folder / "manifest.tsv").write_text(
+        (folder / "manifest.tsv").read_text() + "missing.png\t\t0.0\n"
+    )
+    results = real.run(tmp_path, methods=["colour-rarity", "random"])
+    assert results["sets"] == ["toy"] and len(results["failed"]) == 1
+    assert list(results["groups"]) == ["toy", "toy-part", "pooled"]
+    toy = results["groups"]["toy"]
+    assert toy["n"] == 2 and toy["chance"]["top1"] == pytest.approx(near.mean())
+    assert toy["rates"]["colour-rarity"] | {"ms": 0} == {
+        "top1": 1.0,
+        "any3": 1.0,
+        "p3": pytest.approx(1 / 3),
+        "repeat1": 1.0,
+        "ms": 0,
+    }
+    assert results["groups"]["toy-part"]["rates"]["colour-rarity"]["top1"] == 0.0
+    # Same looks, same points: the run is deterministic.
+    again = real.run(tmp_path, methods=["colour-rarity", "random"])
+    for name in ("colour-rarity", "random"):
+        first, second = toy["rates"][name], again["groups"]["toy"]["rates"][name]
+        assert {k: v for k, v in first.items() if k != "ms"} == {
+            k: v for k, v in second.items() if k != "ms"
+        }
+
+
+def test_real_benchmark_says_so_when_the_data_are_absent(tmp_path, capsys):
+    assert real.main(["--data", str(tmp_path / "nowhere")]) == 0
+    out = capsys.readouterr().out.strip()
+    assert len(out.splitlines()) == 1 and "absent" in out
+
+
+def test_real_benchmark_smoke_on_the_real_data():
+    data = real.default_data_dir()
+    if not (data / "crackforest").is_dir() or not (data / "ai4mars").is_dir():
+        pytest.skip(f"real data absent at {data} (set CYBORG_REAL_DATA to run this)")
+    results = real.run(data, sets=["crackforest", "ai4mars"], limit=2)
+    assert list(results["groups"]) == ["crackforest", "ai4mars", "pooled"]
+    assert results["groups"]["pooled"]["n"] == 4 and not results["failed"]
+    for group in results["groups"].values():
+        assert set(group["rates"]) == set(real.methods())
+        for row in group["rates"].values():
+            assert all(0.0 <= row[k] <= 1.0 for k in ("top1", "any3", "p3", "repeat1"))
+    assert real.verdict(results) is not None
+    assert any(line.startswith("verdict:") for line in real.format_table(results))
 
 
 def test_speed_benchmark_smoke():

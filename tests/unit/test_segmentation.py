@@ -100,7 +100,7 @@ def test_bad_input():
 def test_relaxation_joins_isolated_unsegmented_pixels():
     plane = np.full((20, 20), 100, np.uint8)
     plane[::2, ::2] = 104  # a fine checker: every pixel has off-diagonal pairs
-    strict = PAPER.replace(min_votes=4, radius_max=3, radius_scale=0.5)
+    strict = PAPER.replace(class_shape="disc", min_votes=4, radius_max=3, radius_scale=0.5)
     plain = segment_plane(plane, strict)
     relaxed = segment_plane(plane, strict.replace(relax_passes=1))
     assert (relaxed.labels > 0).sum() > (plain.labels > 0).sum()
