@@ -46,18 +46,24 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from bench.baselines import points_from_map, random_points, rx_anomaly, spectral_residual
+from bench.baselines import (
+    colour_rarity,
+    points_from_map,
+    random_points,
+    rx_anomaly,
+    spectral_residual,
+)
+from daemon.analyze import analyze_image, input_points
 from daemon.regimes import DESCRIPTIONS, REGIMES
 from daemon.scene import Scene
 from daemon.vision.interest import InterestPoint
 from daemon.vision.params import DEFAULT, PAPER, VisionParams
-from daemon.vision.pipeline import analyze
 
 Method = Callable[[Scene, np.random.Generator], list[InterestPoint]]
 
 REFERENCE_SHAPE = (216, 288)
 """The mosaic size on which ``--tolerance`` is given."""
-BASELINES = ("spectral-residual", "rx-anomaly", "random")
+BASELINES = ("spectral-residual", "colour-rarity", "rx-anomaly", "random")
 GOALS = {"top1": 0.90, "any3": 0.97, "repeat1": 0.90, "distinct3": 0.95}
 """The issue's goals for ``default`` in every regime (``empty``: repeat@1 only)."""
 LABELS = {
@@ -73,18 +79,23 @@ SCORES = tuple(LABELS)
 
 
 def pipeline_method(params: VisionParams) -> Method:
-    return lambda scene, _rng: analyze(scene.image, params).points
+    """A profile as the rig runs it (``analyze_image``), points in scene pixels."""
+
+    def method(scene: Scene, _rng: np.random.Generator) -> list[InterestPoint]:
+        bgr, res = analyze_image(scene.image, params)
+        return input_points(bgr.shape, res)
+
+    return method
 
 
 def methods() -> dict[str, Method]:
     return {
         "default": pipeline_method(DEFAULT),
         "paper": pipeline_method(PAPER),
-        "spectral-residual": lambda s, _r: points_from_map(
-            spectral_residual(s.image), PAPER, False
-        ),
-        "rx-anomaly": lambda s, _r: points_from_map(rx_anomaly(s.image), PAPER, True),
-        "random": lambda s, r: random_points(s.image.shape[:2], PAPER.top_n, r),
+        "spectral-residual": lambda s, _r: points_from_map(spectral_residual(s.image), False),
+        "colour-rarity": lambda s, _r: points_from_map(colour_rarity(s.image), True),
+        "rx-anomaly": lambda s, _r: points_from_map(rx_anomaly(s.image), True),
+        "random": lambda s, r: random_points(s.image.shape[:2], 3, r),
     }
 
 

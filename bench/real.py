@@ -58,7 +58,7 @@ from bench.baselines import (
     rx_anomaly,
     spectral_residual,
 )
-from daemon.analyze import _to_input, analyze_image
+from daemon.analyze import analyze_image, input_points
 from daemon.imageio import ImageError, read_image
 from daemon.vision.interest import InterestPoint
 from daemon.vision.params import DEFAULT, PAPER, VisionParams
@@ -90,30 +90,12 @@ def diagonal(shape: tuple[int, ...]) -> float:
     return math.hypot(shape[0], shape[1])
 
 
-def baseline_params(shape: tuple[int, ...]) -> VisionParams:
-    """Peak picking for baseline maps: blur sigma = separation = the hit radius.
-
-    Spelled out rather than derived from a profile, so tuning a profile never moves them.
-    """
-    return VisionParams(
-        blur=HIT_SHARE * diagonal(shape), blur_mode="sigma", min_distance=None, top_n=TOP_N
-    )
-
-
 def pipeline_method(params: VisionParams) -> Method:
     """A profile run as it is; points brought back to input pixels if it ever reduced."""
 
     def method(image: np.ndarray, _rng: np.random.Generator) -> list[InterestPoint]:
         bgr, res = analyze_image(image, params)
-        rows, cols = bgr.shape[:2]
-        arows, acols = res.hsi.i.shape
-        if (arows, acols) == (rows, cols):
-            return res.points
-        sx, sy = cols / acols, rows / arows
-        return [
-            InterestPoint(p.rank, _to_input(p.x, sx), _to_input(p.y, sy), p.score)
-            for p in res.points
-        ]
+        return input_points(bgr.shape, res)
 
     return method
 
@@ -122,7 +104,7 @@ def methods() -> dict[str, Method]:
     """Every method in the run, pipeline profiles first."""
 
     def from_map(saliency: Callable[[np.ndarray], np.ndarray], blur: bool) -> Method:
-        return lambda img, _r: points_from_map(saliency(img), baseline_params(img.shape), blur)
+        return lambda img, _r: points_from_map(saliency(img), blur)
 
     return {
         "default": pipeline_method(DEFAULT),

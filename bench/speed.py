@@ -107,7 +107,7 @@ def run(
                 out.append(analyze(im, p).timings_ms)
 
             ms = _median_ms(once, repeats)
-            base = floor_ms(img, params.sigma, repeats)
+            base = floor_ms(img, params.sigma(img.shape[:2]), repeats)
             prims = primitives_ms(img, params, repeats)
             rows.append(
                 {

@@ -16,14 +16,22 @@ import numpy as np
 
 from .imageio import ImageError, read_image, write_atomic, write_jpeg, write_png
 from .vision import render
-from .vision.interest import PLANE_NAMES, describe
+from .vision.explain import PLANE_NAMES, describe
+from .vision.interest import InterestPoint
 from .vision.params import VisionParams, profile
 from .vision.pipeline import Analysis, analyze, as_bgr8
 from .vision.uncommon import uncommon_map
 
 _LOGGER = logging.getLogger(__name__)
 
-__all__ = ["AnalyzeOptions", "analyse_into", "analyze_files", "analyze_image", "write_products"]
+__all__ = [
+    "AnalyzeOptions",
+    "analyse_into",
+    "analyze_files",
+    "analyze_image",
+    "input_points",
+    "write_products",
+]
 
 
 @dataclass(frozen=True)
@@ -70,21 +78,34 @@ def _to_input(value: float, scale: float) -> float:
     return (value + 0.5) * scale - 0.5
 
 
+def input_points(shape: tuple[int, ...], res: Analysis) -> list[InterestPoint]:
+    """The analysis's points in the pixels of an input of this shape (it may have been
+    reduced before analysis)."""
+    arows, acols = res.hsi.i.shape
+    sx, sy = shape[1] / acols, shape[0] / arows
+    return [
+        InterestPoint(p.rank, _to_input(p.x, sx), _to_input(p.y, sy), p.score, p.radius * sx)
+        for p in res.points
+    ]
+
+
 def result_document(
     path: str, bgr: np.ndarray, res: Analysis, profile: str, products: dict[str, str]
 ) -> dict[str, Any]:
     """The ``result.json`` contents: points in input pixels, classes, parameters, timings."""
     rows, cols = bgr.shape[:2]
     arows, acols = res.hsi.i.shape
-    sx, sy = cols / acols, rows / arows
+    found = input_points(bgr.shape, res)
     points = []
-    for p, expl in zip(res.points, res.explanations, strict=True):
+    for p, expl, line in zip(found, res.explanations, res.descriptions, strict=True):
         points.append(
             {
                 "rank": p.rank,
-                "x": round(_to_input(p.x, sx), 2),
-                "y": round(_to_input(p.y, sy), 2),
+                "x": round(p.x, 2),
+                "y": round(p.y, 2),
+                "radius": round(p.radius, 2),
                 "score": round(p.score, 4),
+                "description": line,
                 "summary": describe(expl),
                 "explanation": expl,
             }

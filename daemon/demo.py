@@ -52,5 +52,5 @@ def run_demo(out: Path, seed: int) -> int:
             near = min(scene.targets, key=lambda t, p=p: np.hypot(t.x - p["x"], t.y - p["y"]))
             dist = float(np.hypot(near.x - p["x"], near.y - p["y"]))
             found = f"found the {near.kind}" if dist <= near.radius + 6 else "no planted target"
-            print(f"    #{p['rank']} ({p['x']:.0f}, {p['y']:.0f}): {found}; {p['summary']}")
+            print(f"    #{p['rank']} ({p['x']:.0f}, {p['y']:.0f}): {found}; {p['description']}")
     return status

@@ -396,7 +396,7 @@ class Survey:
                     p["score"],
                     round(pan, 4),
                     round(tilt, 4),
-                    p["summary"],
+                    p["description"],
                 )
             )
         return points

@@ -18,12 +18,12 @@ A pixel joins class k when at least ``min_votes`` of its 4 neighbour pairs fall 
 (borders reflected); otherwise it stays **unsegmented** (label 0, drawn black).
 Labels 1..K are ordered by class area: 1 is the largest class.
 
-Fast labelling: each value v of class k is coded as u(v) = 32 k + q(v), with
-q(v) = round(15 (v - g)^2 / r^2) <= 15 (one lookup table; q = 0 throughout a block), and w(v) = 32 k + 16 - q(v) is
-derived from u by bit arithmetic. A pair (a, b) lies in the disc of a common class exactly
-when the saturating difference w(b) - u(a) is in 1..16, so the test is two SIMD passes per
-direction (the disc edge is resolved to r^2 / 15). Values in no disc get u = 240, whose w is
-224: no pair with them lands in 1..16.
+Fast labelling: each value v of class k is coded as u(v) = 32 k + q(v), with q(v) = round(15 (v -
+g)^2 / r^2) <= 15 (one lookup table; q = 0 throughout a block), and w(v) = 32 k + 16 - q(v) is
+derived from u by bit arithmetic. A pair (a, b) lies in the region of a common class exactly when
+the saturating difference w(b) - u(a) is in 1..16, so the test is two SIMD passes per direction (the
+disc edge is resolved to r^2 / 15). Values in no disc get u = 240, whose w is 224: no pair with them
+lands in 1..16.
 """
 
 from __future__ import annotations
@@ -317,9 +317,9 @@ def _value_tables(
 ) -> tuple[list[int], np.ndarray]:
     """Number the classes and code the values: (order, per-value u code).
 
-    A value belongs to its block, or to the nearest peak whose disc holds it (ties: the
-    higher peak, i.e. the earlier in ``classes``). Ids 1..K number the classes by expected area, the count of their
-    values (``order[id - 1]`` indexes ``classes``), so the final ranking by exact area is
+    A value belongs to its block, or to the nearest peak whose disc holds it (ties: the higher peak,
+    i.e. the earlier in ``classes``). Ids 1..K number the classes by expected area, the count of
+    their values (``order[id - 1]`` indexes ``classes``), so the final ranking by exact area is
     usually the identity and costs no relabelling pass. A value in no disc gets ``_NONE``.
     """
     values = np.arange(256)

@@ -30,11 +30,9 @@ import numpy as np
 
 from .cooccurrence import Segmentation
 from .params import VisionParams
-from .uncommon import uncommon_map, uncommon_values
+from .uncommon import uncommon_map
 
-__all__ = ["InterestMap", "InterestPoint", "explain_point", "find_points", "interest_map"]
-
-PLANE_NAMES = ("H", "S", "I")
+__all__ = ["InterestMap", "InterestPoint", "find_points", "interest_map", "summed_uncommon"]
 
 
 @dataclass(frozen=True)
@@ -186,7 +184,8 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
 
     A peak is a local maximum over a (2 d + 1)^2 window (d = separation) that stands above
     the map's minimum: a flat map (no contrast) yields no points. A peak's patch is the
-    connected part of the map above ``valley`` x its height that holds it; a peak whose
+    connected part of the map above ``valley`` x its height over the map's median that
+    holds it; a peak whose
     patch holds a chosen point is that point's target again. A point's radius is that of a
     disc of its patch's area (the separation without ``valley``). Patches are taken on the
     plain blurred map when ``grid`` was reshaped by ``isotropy``.
@@ -226,6 +225,8 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     cut = np.partition(values, len(values) - best)[len(values) - best] if best else 0.0
     first = values >= cut
     chosen: list[tuple[int, int, float, float]] = []  # row, col, value, radius (grid)
+    support = grid if imap.blurred is None else imap.blurred
+    base = float(np.median(support))  # heights count from the map's typical level
     for subset in (np.flatnonzero(first), np.flatnonzero(~first)):
         order = subset[np.lexsort((cols[subset], rows[subset], -values[subset]))]
         for i in order:
@@ -234,8 +235,7 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
                 continue
             radius = sep
             if params.valley > 0:
-                support = grid if imap.blurred is None else imap.blurred
-                level = params.valley * float(support[r, c])
+                level = base + params.valley * (float(support[r, c]) - base)
                 patch = _patch(support, r, c, level)
                 if any(patch[y, x] for y, x, _, _ in chosen):
                     continue
@@ -258,70 +258,3 @@ def _patch(grid: np.ndarray, r: int, c: int, level: float) -> np.ndarray:
     above = (grid >= level).astype(np.uint8)
     _, labels = cv2.connectedComponents(above, connectivity=8)
     return labels == labels[r, c]
-
-
-def explain_point(
-    point: InterestPoint, segs: tuple[Segmentation, ...], params: VisionParams
-) -> list[dict]:
-    """Say which planes and classes made a point interesting.
-
-    For each plane: its share of the score (the Gaussian-weighted mean of its weighted
-    uncommon map around the point, which is exactly what the blur summed) and the class that
-    contributed most there (rank k of K, its value and its share of the image).
-    """
-    rows, cols = segs[0].labels.shape
-    sigma = params.sigma((rows, cols))
-    rad = max(1, math.ceil(2.5 * sigma))
-    x, y = round(point.x), round(point.y)
-    r0, r1 = max(0, y - rad), min(rows, y + rad + 1)
-    c0, c1 = max(0, x - rad), min(cols, x + rad + 1)
-    yy, xx = np.mgrid[r0:r1, c0:c1]
-    kernel = np.exp(-((yy - point.y) ** 2 + (xx - point.x) ** 2) / (2.0 * sigma**2))
-    kernel /= kernel.sum()
-    total_pixels = rows * cols
-    planes = []
-    for name, seg, weight in zip(PLANE_NAMES, segs, params.plane_weights, strict=True):
-        values = uncommon_values(seg, params)
-        window = seg.labels[r0:r1, c0:c1]
-        contrib = float((values[window] * kernel).sum() * weight)
-        by_class = np.bincount(
-            window.ravel(), weights=(values[window] * kernel).ravel(), minlength=seg.k + 1
-        )
-        entry: dict = {"plane": name, "contribution": round(contrib, 3), "classes": seg.k}
-        if seg.k and by_class[1:].max() > 0:
-            k = int(np.argmax(by_class[1:])) + 1
-            cls = seg.classes[k - 1]
-            entry.update(
-                {
-                    "class": k,
-                    "value": (
-                        "grey"
-                        if name == "H" and params.hue_grey == "class" and cls.center <= cls.radius
-                        else _natural_value(name, seg.original_value(cls.center))
-                    ),
-                    "area_fraction": round(cls.area / total_pixels, 5),
-                    "uncommon": round(float(values[k]), 3),
-                }
-            )
-        planes.append(entry)
-    return planes
-
-
-def _natural_value(plane: str, value: int) -> float:
-    """Hue in degrees; S and I stay 0..255."""
-    return round(value * 360.0 / 256.0, 1) if plane == "H" else float(value)
-
-
-def describe(explanation: list[dict]) -> str:
-    """One line a field scientist can read, strongest plane first."""
-    parts = []
-    for e in sorted(explanation, key=lambda e: -e["contribution"]):
-        if "class" not in e:
-            continue
-        value = e["value"] if isinstance(e["value"], str) else f"{e['value']:g}"
-        unit = "deg" if e["plane"] == "H" and not isinstance(e["value"], str) else ""
-        parts.append(
-            f"{e['plane']} class {e['class']}/{e['classes']} ({value}{unit}, "
-            f"{100 * e['area_fraction']:.2g}% of image) +{e['contribution']:.1f}"
-        )
-    return "; ".join(parts) if parts else "no segmented class nearby"

@@ -33,9 +33,9 @@ class VisionParams:
     hue_min_intensity: int = 0
     """I (0..255) below which hue is undefined too: hue noise grows as 1 / I in the dark."""
     hue_grey: HueGrey = "zero"
-    """Hue of grey pixels (S < ``grey_saturation``). zero: H = 0, as 2004-era code did; unsegmented: kept out of the
-    hue segmentation; class: given the emptiest hue code, so grey is a hue class of its own
-    whose rarity counts like any other (a white vein in red rock is rare in H too)."""
+    """Hue of grey pixels (S < ``grey_saturation``). zero: H = 0, as 2004-era code did; unsegmented:
+    kept out of the hue segmentation; class: given the emptiest hue code, so grey is a hue class of
+    its own whose rarity counts like any other (a white vein in red rock is rare in H too)."""
     hue_rotate: bool = False
     """Rotate hue so the 0/360 cut falls in the emptiest hue bin (red beds straddle the cut)."""
 
@@ -188,8 +188,9 @@ and images (``bench/quality.py`` seeds 1000+, ``bench/real.py``) and is reported
   itself within its plane (the dark tail of one broad class: a crack, a pit);
 * B = 1 % of the image diagonal, so the same outcrop gives the same points at any size;
 * two peaks are one target unless the map dips below 70 % of the lower one between them,
-  so three points are three targets whatever their size; 3/4 of the score depends on the roundness of the surroundings, which takes the
-  long ledge shadows the seed papers complain about off the top;
+  so three points are three targets whatever their size;
+* 3/4 of the score depends on the roundness of the surroundings, which takes the long
+  ledge shadows the seed papers complain about off the top;
 * images above 0.5 MP are analysed at 0.5 MP (a 12 MP photo needs no flags).
 """
 

@@ -9,8 +9,9 @@ import cv2
 import numpy as np
 
 from .cooccurrence import Segmentation, segment_plane
+from .explain import explain_points, plain_lines
 from .hsi import HSIPlanes, hue_histogram_rotation, rgb_to_hsi
-from .interest import InterestMap, InterestPoint, explain_point, find_points, interest_map
+from .interest import InterestMap, InterestPoint, find_points, interest_map
 from .params import VisionParams
 
 __all__ = ["Analysis", "analyze", "as_bgr8"]
@@ -25,6 +26,8 @@ class Analysis:
     interest: InterestMap
     points: list[InterestPoint]
     explanations: list[list[dict]]
+    descriptions: list[str]
+    """One plain-language line per point (``explain.plain_lines``)."""
     params: VisionParams
     timings_ms: dict[str, float] = field(default_factory=dict)
 
@@ -114,7 +117,8 @@ def analyze(bgr: np.ndarray, params: VisionParams) -> Analysis:
     points = find_points(imap, params)
     t3 = time.perf_counter()
     timings["interest"] = (t3 - t2) * 1e3
-    explanations = [explain_point(p, segs, params) for p in points]
+    explanations = explain_points(points, segs, params)
+    descriptions = plain_lines(points, hsi)
     timings["explain"] = (time.perf_counter() - t3) * 1e3
     timings["total"] = (time.perf_counter() - t0) * 1e3
-    return Analysis(hsi, segs, imap, points, explanations, params, timings)
+    return Analysis(hsi, segs, imap, points, explanations, descriptions, params, timings)

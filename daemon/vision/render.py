@@ -107,8 +107,14 @@ def overlay(bgr: np.ndarray, points: list[InterestPoint], scale: float = 1.0) ->
         cv2.circle(out, centre, r, colour, thick, cv2.LINE_AA)
         label = str(p.rank)
         (tw, th), _ = cv2.getTextSize(label, cv2.FONT_HERSHEY_SIMPLEX, font, thick)
-        x = centre[0] + r + 2 * thick if centre[0] + r + tw + 4 * thick < cols else centre[0] - r - tw - 2 * thick
+        x = (
+            centre[0] + r + 2 * thick
+            if centre[0] + r + tw + 4 * thick < cols
+            else centre[0] - r - tw - 2 * thick
+        )
         y = min(max(centre[1] + th // 2, th + 1), rows - 2)
-        cv2.putText(out, label, (x, y), cv2.FONT_HERSHEY_SIMPLEX, font, (0, 0, 0), thick + 2, cv2.LINE_AA)
+        cv2.putText(
+            out, label, (x, y), cv2.FONT_HERSHEY_SIMPLEX, font, (0, 0, 0), thick + 2, cv2.LINE_AA
+        )
         cv2.putText(out, label, (x, y), cv2.FONT_HERSHEY_SIMPLEX, font, colour, thick, cv2.LINE_AA)
     return out

@@ -29,7 +29,14 @@ def test_quality_benchmark_smoke():
     results = quality.run(n_scenes=2, seed=0, tolerance=6.0)
     assert list(results) == ["tiny", "seed", "large", "veins", "empty"]
     for table in results.values():
-        assert set(table) == {"default", "paper", "spectral-residual", "rx-anomaly", "random"}
+        assert set(table) == {
+            "default",
+            "paper",
+            "spectral-residual",
+            "colour-rarity",
+            "rx-anomaly",
+            "random",
+        }
         for row in table.values():
             for key in ("top1", "any3", "precision3", "shadow3", "decoy1", "distinct3", "repeat1"):
                 assert 0.0 <= row[key] <= 1.0

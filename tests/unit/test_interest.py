@@ -3,13 +3,8 @@ import numpy as np
 import pytest
 
 from daemon.vision.cooccurrence import PlaneClass, Segmentation
-from daemon.vision.interest import (
-    InterestMap,
-    describe,
-    find_points,
-    interest_map,
-    summed_uncommon,
-)
+from daemon.vision.explain import describe
+from daemon.vision.interest import InterestMap, find_points, interest_map, summed_uncommon
 from daemon.vision.params import DEFAULT, PAPER
 from daemon.vision.pipeline import analyze, as_bgr8
 from daemon.vision.uncommon import uncommon_map
@@ -26,8 +21,8 @@ def rock_with_blob(rng, size=12, blob_colour=(40, 160, 40)):
     return np.clip(img, 0, 255).astype(np.uint8)
 
 
-# The blob is matched to each profile's blur scale B (10 px for paper, 3 px for default).
-@pytest.mark.parametrize(("params", "size"), [(PAPER, 24), (DEFAULT, 12)])
+# The blob is matched to each profile's blur scale B (FWHM 10 px for paper, 2 px for default).
+@pytest.mark.parametrize(("params", "size"), [(PAPER, 16), (DEFAULT, 12)])
 def test_odd_coloured_blob_is_the_top_point(rng, params, size):
     res = analyze(rock_with_blob(rng, size), params)
     top = res.points[0]
@@ -41,13 +36,14 @@ def test_odd_coloured_blob_is_the_top_point(rng, params, size):
 
 
 def test_decimated_blur_matches_exact_blur(rng):
-    res = analyze(rock_with_blob(rng, 24), PAPER)
-    fast = interest_map(res.segmentations, PAPER)
-    exact = interest_map(res.segmentations, PAPER.replace(exact_blur=True))
+    params = PAPER.replace(blur_mode="sigma")
+    res = analyze(rock_with_blob(rng, 24), params)
+    fast = interest_map(res.segmentations, params)
+    exact = interest_map(res.segmentations, params.replace(exact_blur=True))
     assert fast.factor == 4 and exact.factor == 1
     err = np.abs(fast.full() - exact.full())
     assert err.max() < 0.05 * exact.grid.max()
-    p_fast, p_exact = find_points(fast, PAPER)[0], find_points(exact, PAPER)[0]
+    p_fast, p_exact = find_points(fast, params)[0], find_points(exact, params)[0]
     assert abs(p_fast.x - p_exact.x) < 1.5 and abs(p_fast.y - p_exact.y) < 1.5
 
 
@@ -56,7 +52,7 @@ def test_points_respect_separation(rng):
     pts = analyze(img, PAPER.replace(top_n=10)).points
     for i, a in enumerate(pts):
         for b in pts[i + 1 :]:
-            assert np.hypot(a.x - b.x, a.y - b.y) >= PAPER.separation - 2  # sub-pixel refinement
+            assert np.hypot(a.x - b.x, a.y - b.y) >= PAPER.separation(img.shape[:2]) - 2
 
 
 @pytest.mark.parametrize(
@@ -94,28 +90,71 @@ def test_white_spot_is_explained_as_a_grey_hue_class(rng):
     h = next(e for e in res.explanations[0] if e["plane"] == "H")
     assert h["value"] == "grey"
     assert "H class" in describe(res.explanations[0]) and "(grey," in describe(res.explanations[0])
+    assert res.descriptions[0].startswith("bright white patch")
 
 
-def test_blob_scoring_prefers_a_compact_spot_to_a_ledge_shadow(rng):
-    """A bluish ledge shadow across the frame is rare in H, S and I, a plant of the rock's
-    brightness mostly in H: the shadow wins the plain blurred sum, the plant wins with blob
-    scoring, and the decimated grid agrees with the full-resolution one. (A shadow that ends
-    inside the frame keeps some score at its two rounded ends: half a blob each.)"""
+def ledge_and_plant(rng):
+    """A bluish ledge shadow across the frame (rare in H, S and I) and a plant of the
+    rock's brightness, rare mostly in H."""
     img = np.empty((120, 200, 3), np.float64)
     img[:] = (60, 110, 160)
     img += rng.normal(0, 3, img.shape)
     img[30:38] = (70, 40, 30)  # a ledge shadow, 8 px high, across the frame
     img[80:90, 95:105] = (60, 160, 110)  # a plant, 10 px across
-    img = np.clip(img, 0, 255).astype(np.uint8)
-    plain = analyze(img, DEFAULT.replace(blob=False))
-    assert abs(plain.points[0].y - 34) < 5, "without blob scoring the shadow wins"
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def test_isotropy_prefers_a_compact_spot_to_a_ledge_shadow(rng):
+    img = ledge_and_plant(rng)
+    plain = analyze(img, DEFAULT.replace(isotropy=0.0))
+    assert abs(plain.points[0].y - 34) < 5, "without the shape term the shadow wins"
     res = analyze(img, DEFAULT)
     top = res.points[0]
     assert abs(top.x - 99.5) < 3 and abs(top.y - 84.5) < 3
-    grid = res.interest.full()
-    assert grid[34, 100] < 0.05 * grid[85, 100]  # the shadow's middle is a ridge: ~0
+    assert "green" in res.descriptions[0]
     exact = interest_map(res.segmentations, DEFAULT.replace(exact_blur=True))
     assert abs(find_points(exact, DEFAULT)[0].x - top.x) < 1.5
+
+
+def test_three_points_are_three_targets_of_any_size(rng):
+    """A big lichen patch (with texture that makes several peaks inside it) and two small
+    spots: the valley rule gives one point per target, whatever its size."""
+    img = np.empty((200, 260, 3), np.float64)
+    img[:] = (110, 140, 170)
+    img += rng.normal(0, 3, img.shape)
+    yy, xx = np.mgrid[:200, :260]
+    lichen = (yy - 70) ** 2 + (xx - 80) ** 2 < 40**2
+    img[lichen] = (40, 160, 150)
+    img[lichen] += rng.normal(0, 12, (int(lichen.sum()), 3))
+    img[150:158, 200:208] = (40, 40, 190)  # a red spot
+    img[40:47, 210:217] = (235, 235, 235)  # a white nodule
+    img = np.clip(img, 0, 255).astype(np.uint8)
+    res = analyze(img, DEFAULT)
+    assert len(res.points) == 3
+    found = set()
+    for p in res.points:
+        if lichen[round(p.y), round(p.x)]:
+            found.add("lichen")
+        elif abs(p.x - 203.5) < 6 and abs(p.y - 153.5) < 6:
+            found.add("red")
+        elif abs(p.x - 213) < 6 and abs(p.y - 43) < 6:
+            found.add("white")
+    assert found == {"lichen", "red", "white"}
+    big = next(p for p in res.points if lichen[round(p.y), round(p.x)])
+    assert big.radius > 20  # the patch's own size, not the blur
+
+
+def test_thin_bright_vein_in_dark_rock_is_found(rng):
+    img = np.empty((216, 288, 3), np.float64)
+    img[:] = (52, 62, 118)  # dark red mudstone
+    img += rng.normal(0, 3, img.shape)
+    for x in range(60, 200):  # a white vein 2 px wide, slightly curved
+        y = round(110 + 12 * np.sin(x / 40.0))
+        img[y : y + 2, x] = (232, 236, 238)
+    img = np.clip(img, 0, 255).astype(np.uint8)
+    res = analyze(img, DEFAULT)
+    top = res.points[0]
+    assert 55 <= top.x <= 205 and abs(top.y - (110 + 12 * np.sin(top.x / 40.0))) < 8
 
 
 def test_partial_sort_of_peaks_picks_what_a_full_sort_picks(rng):
@@ -137,16 +176,22 @@ def test_partial_sort_of_peaks_picks_what_a_full_sort_picks(rng):
 
 @pytest.mark.parametrize("weights", [(1.0, 1.0, 1.0), (2.0, 0.5, 1.0), (0.0, 3.0, 0.1)])
 def test_summed_uncommon_equals_the_weighted_sum_of_the_maps(rng, weights):
-    # H and S share one lookup on a byte holding both labels; it must add up like three.
     params = DEFAULT.replace(plane_weights=weights)
     segs = []
     for k in (8, 5, 3):
         areas = sorted(rng.integers(1, 5000, k).tolist(), reverse=True)
         classes = tuple(PlaneClass(10 * i, 3, 1.0, a) for i, a in enumerate(areas))
         labels = rng.integers(0, k + 1, (40, 60)).astype(np.uint8)
-        segs.append(Segmentation(labels, classes, np.zeros((256, 256), np.float32)))
-    total, scale = summed_uncommon(tuple(segs), params)
+        values = rng.integers(0, 256, (40, 60)).astype(np.uint8)
+        profile = rng.random(256) * 100
+        segs.append(
+            Segmentation(labels, classes, np.zeros((256, 256), np.float32), 0, values, profile)
+        )
+    total = summed_uncommon(tuple(segs), params)
     expected = sum(w * uncommon_map(s, params) for s, w in zip(segs, weights, strict=True))
-    assert total.dtype == np.uint8
-    # Each plane's table is rounded to 1 / scale, so the sum is within 1.5 of those steps.
-    assert np.abs(total / scale - expected).max() <= 1.5 / scale + 1e-6
+    assert total.dtype == np.float32
+    np.testing.assert_allclose(total, expected, rtol=1e-5, atol=1e-5)
+    tails = [
+        uncommon_map(s, params) - uncommon_map(s, params.replace(value_rarity=0)) for s in segs
+    ]
+    assert all(t.max() > 0 and (t[segs[i].labels == 0] == 0).all() for i, t in enumerate(tails))

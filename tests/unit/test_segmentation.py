@@ -36,7 +36,8 @@ def test_two_flat_regions_give_two_ranked_classes(rng, params):
     assert abs(seg.classes[0].center - 60) <= 2 and abs(seg.classes[1].center - 180) <= 2
     assert seg.classes[0].area > seg.classes[1].area
     umap = uncommon_map(seg, params)
-    assert np.median(umap[:, 5:55]) == 1.0 and np.median(umap[:, 65:]) > 1.0
+    assert np.median(umap[:, 5:55]) == pytest.approx(1.0, abs=0.01)
+    assert np.median(umap[:, 65:]) > 1.5
 
 
 @pytest.mark.parametrize("name", ["paper", "default"])

@@ -1,0 +1,190 @@
+"""Why a point is interesting: the numbers per plane, and one line a geologist can read.
+
+The numeric explanation is exact: each plane's share of the point's score is the
+Gaussian-weighted mean of its weighted uncommon map around the point (what the blur
+summed), with the class that gave most of it. The plain line compares what lies inside
+the point's radius with the whole image: its colour in words, how much darker or brighter
+it is than the rest, and its share of the area, e.g. "dark grey patch, darker than 97 % of
+the image; 0.4 % of the area" or "green patch on brown rock; 2.1 % of the area".
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .cooccurrence import Segmentation
+from .hsi import HSIPlanes
+from .interest import InterestPoint
+from .params import VisionParams
+from .uncommon import uncommon_map
+
+__all__ = ["PLANE_NAMES", "colour_name", "describe", "explain_points", "plain_lines"]
+
+PLANE_NAMES = ("H", "S", "I")
+
+# Hue sectors in degrees (upper bounds) and their names; saturation and intensity refine.
+_HUES = ((15, "red"), (40, "orange"), (70, "yellow"), (165, "green"), (200, "cyan"),
+         (260, "blue"), (290, "purple"), (340, "pink"), (360, "red"))  # fmt: skip
+
+
+def colour_name(hue_deg: float, saturation: float, intensity: float) -> str:
+    """A plain colour word for a geometric HSI colour (S and I on 0..255).
+
+    Examples
+    --------
+    >>> colour_name(120, 150, 100), colour_name(25, 60, 70), colour_name(0, 5, 240)
+    ('green', 'brown', 'white')
+    >>> colour_name(0, 5, 40), colour_name(210, 8, 128), colour_name(10, 120, 120)
+    ('black', 'grey', 'red')
+    """
+    if saturation < 20:
+        if intensity >= 200:
+            return "white"
+        return "black" if intensity < 50 else "grey"
+    name = next(n for top, n in _HUES if hue_deg % 360 < top)
+    if name in ("orange", "red", "yellow") and intensity < 110 and saturation < 140:
+        return "brown"
+    if name == "yellow" and saturation < 60:
+        return "buff"
+    return name
+
+
+_ANGLES = np.arange(256) * (2 * math.pi / 256.0)
+
+
+def _median(values: np.ndarray) -> float:
+    counts = np.bincount(values.ravel(), minlength=256)
+    return float(np.searchsorted(np.cumsum(counts), (values.size + 1) / 2))
+
+
+def _typical(h: np.ndarray, s: np.ndarray, i: np.ndarray) -> str:
+    """The colour word of a region's pixels: saturation-weighted mean hue, median S and I
+    (by histograms: cheap on a whole photograph)."""
+    if h.size == 0:
+        return "grey"
+    weight = np.bincount(h.ravel(), weights=s.ravel().astype(np.float64) + 1e-9, minlength=256)
+    mean = math.atan2(float(weight @ np.sin(_ANGLES)), float(weight @ np.cos(_ANGLES)))
+    return colour_name(math.degrees(mean) % 360, _median(s), _median(i))
+
+
+def plain_lines(points: list[InterestPoint], hsi: HSIPlanes) -> list[str]:
+    """One sentence per point on what it found, comparing its patch with the whole image.
+
+    Examples
+    --------
+    >>> from daemon.vision.hsi import rgb_to_hsi
+    >>> img = np.full((100, 100, 3), (60, 100, 140), np.uint8)    # brown rock (BGR)
+    >>> img[40:50, 40:50] = (40, 150, 110)                         # a green plant
+    >>> img[80:90, 10:20] = (30, 50, 70)                           # a wet stain
+    >>> pts = [InterestPoint(1, 44.5, 44.5, 1.0, 5.0), InterestPoint(2, 14.5, 84.5, 1.0, 5.0)]
+    >>> for line in plain_lines(pts, rgb_to_hsi(img)):
+    ...     print(line)
+    green patch on brown rock; 0.79 % of the area
+    dark brown patch, darker than 99 % of the image; 0.79 % of the area
+    """
+    rows, cols = hsi.i.shape
+    whole = _typical(hsi.h, hsi.s, hsi.i)
+    below = np.concatenate([[0], np.cumsum(np.bincount(hsi.i.ravel(), minlength=256))])
+    lines = []
+    for point in points:
+        radius = max(point.radius, 1.0)
+        r0, r1 = max(0, math.floor(point.y - radius)), min(rows, math.ceil(point.y + radius) + 1)
+        c0, c1 = max(0, math.floor(point.x - radius)), min(cols, math.ceil(point.x + radius) + 1)
+        yy, xx = np.ogrid[r0:r1, c0:c1]
+        inside = (yy - point.y) ** 2 + (xx - point.x) ** 2 <= radius**2
+        if not inside.any():
+            inside = np.ones((r1 - r0, c1 - c0), bool)
+        h, sat, i = (plane[r0:r1, c0:c1][inside] for plane in hsi.planes)
+        here = _typical(h, sat, i)
+        level = _median(i)
+        darker = 1.0 - below[int(level) + 1] / below[-1]  # share strictly brighter
+        brighter = below[int(level)] / below[-1]  # share strictly darker
+        area = 100.0 * math.pi * radius**2 / (rows * cols)
+        kind = "patch" if area >= 0.2 else "spot"
+        tone, versus = "", ""
+        if darker >= 0.8:
+            tone, versus = "dark ", f", darker than {100 * darker:.0f} % of the image"
+        elif brighter >= 0.8:
+            tone, versus = "bright ", f", brighter than {100 * brighter:.0f} % of the image"
+        if here != whole:
+            head = f"{tone}{here} {kind} on {whole} rock"
+        elif tone:
+            head = f"{tone}{here} {kind}{versus}"
+        else:
+            head = f"{here} {kind} of unusual tone or texture"
+        lines.append(f"{head}; {area:.2g} % of the area")
+    return lines
+
+
+def explain_points(
+    points: list[InterestPoint], segs: tuple[Segmentation, ...], params: VisionParams
+) -> list[list[dict]]:
+    """Say, for each point, which planes and classes made it interesting.
+
+    For each plane: its share of the score (the Gaussian-weighted mean of its weighted
+    uncommon map around the point, which is exactly what the blur summed) and the class that
+    contributed most there (rank k of K, its value, its share of the image and its mean
+    uncommon value there).
+    """
+    if not points:
+        return []
+    rows, cols = segs[0].labels.shape
+    sigma = params.sigma((rows, cols))
+    rad = max(1, math.ceil(2.5 * sigma))
+    maps = [uncommon_map(seg, params) for seg in segs]
+    out = []
+    for point in points:
+        x, y = round(point.x), round(point.y)
+        r0, r1 = max(0, y - rad), min(rows, y + rad + 1)
+        c0, c1 = max(0, x - rad), min(cols, x + rad + 1)
+        yy, xx = np.mgrid[r0:r1, c0:c1]
+        kernel = np.exp(-((yy - point.y) ** 2 + (xx - point.x) ** 2) / (2.0 * sigma**2))
+        kernel /= kernel.sum()
+        planes = []
+        for name, seg, umap, weight in zip(
+            PLANE_NAMES, segs, maps, params.plane_weights, strict=True
+        ):
+            window = seg.labels[r0:r1, c0:c1]
+            scored = umap[r0:r1, c0:c1] * kernel
+            by_class = np.bincount(window.ravel(), weights=scored.ravel(), minlength=seg.k + 1)
+            entry: dict = {"plane": name, "contribution": round(float(scored.sum()) * weight, 3)}
+            entry["classes"] = seg.k
+            if seg.k and by_class[1:].max() > 0:
+                k = int(np.argmax(by_class[1:])) + 1
+                cls = seg.classes[k - 1]
+                grey = name == "H" and params.hue_grey == "class" and cls.span[0] == 0
+                value = "grey" if grey else _natural_value(name, seg.original_value(cls.center))
+                weight_k = max(float(kernel[window == k].sum()), 1e-12)
+                entry.update(
+                    {
+                        "class": k,
+                        "value": value,
+                        "area_fraction": round(cls.area / (rows * cols), 5),
+                        "uncommon": round(float(by_class[k]) / weight_k, 3),
+                    }
+                )
+            planes.append(entry)
+        out.append(planes)
+    return out
+
+
+def _natural_value(plane: str, value: int) -> float:
+    """Hue in degrees; S and I stay 0..255."""
+    return round(value * 360.0 / 256.0, 1) if plane == "H" else float(value)
+
+
+def describe(explanation: list[dict]) -> str:
+    """The numeric explanation in one line, strongest plane first."""
+    parts = []
+    for e in sorted(explanation, key=lambda e: -e["contribution"]):
+        if "class" not in e:
+            continue
+        value = e["value"] if isinstance(e["value"], str) else f"{e['value']:g}"
+        unit = "deg" if e["plane"] == "H" and not isinstance(e["value"], str) else ""
+        parts.append(
+            f"{e['plane']} class {e['class']}/{e['classes']} ({value}{unit}, "
+            f"{100 * e['area_fraction']:.2g}% of image) +{e['contribution']:.1f}"
+        )
+    return "; ".join(parts) if parts else "no segmented class nearby"
