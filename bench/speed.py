@@ -1,5 +1,8 @@
 """Speed benchmark of the science core on one core, against floors measured in the same run.
 
+Timed as the rig runs it (``analyze_image``): a profile with a working size (``max_pixels``)
+first reduces a bigger image, and that reduction is part of the time.
+
 Floor = the least any pipeline of this shape must do: OpenCV's colour conversion
 (BGR -> HSV) plus a Gaussian blur with sigma = B of one 8-bit plane, on the same image with
 the same thread count. A ratio <= 1.0 means the whole pipeline (HSI, three co-occurrence
@@ -27,12 +30,13 @@ import numpy as np
 
 from daemon.scene import outcrop_scene
 from daemon.vision.params import PROFILES, VisionParams
-from daemon.vision.pipeline import analyze
+from daemon.analyze import analyze_image
 
 SIZES: dict[str, tuple[int, int]] = {
     "seed mosaic 192x108": (108, 192),
     "3x4 mosaic 1152x1080": (1080, 1152),
     "11x4 mosaic 1152x3960": (3960, 1152),
+    "photo 4000x3000": (3000, 4000),
     "panorama 8000x4000": (4000, 8000),
 }
 SEED_SECONDS = 120.0
@@ -85,7 +89,7 @@ def primitives_ms(img: np.ndarray, params: VisionParams, repeats: int) -> float:
 def peak_traced_mb(img: np.ndarray, params: VisionParams) -> float:
     """Peak of arrays allocated through numpy (OpenCV's outputs included) during one run."""
     tracemalloc.start()
-    analyze(img, params)
+    analyze_image(img, params)
     _, peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
     return peak / 2**20
@@ -100,11 +104,11 @@ def run(
         img = test_image(shape)
         mp = img.shape[0] * img.shape[1] / 1e6
         for pname, params in PROFILES.items():
-            analyze(img, params)  # warm caches and page in the image
+            analyze_image(img, params)  # warm caches and page in the image
             stages: list[dict[str, float]] = []
 
             def once(p: VisionParams = params, im: np.ndarray = img, out: list = stages) -> None:
-                out.append(analyze(im, p).timings_ms)
+                out.append(analyze_image(im, p)[1].timings_ms)
 
             ms = _median_ms(once, repeats)
             base = floor_ms(img, params.sigma(img.shape[:2]), repeats)

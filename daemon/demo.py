@@ -10,27 +10,58 @@ import numpy as np
 
 from .analyze import AnalyzeOptions, analyze_files
 from .imageio import write_atomic, write_png
+from .regimes import seed_cliff
 from .scene import outcrop_scene
 from .vision.params import PROFILES
 
+SHEET = (
+    "overlay",
+    "interest",
+    "segmentation_h",
+    "segmentation_s",
+    "segmentation_i",
+    "cooccurrence_i",
+)
+"""A contact sheet of one analysis, three products a row."""
+REPRODUCTION = (
+    *("plane_i", "segmentation_h", "segmentation_s", "segmentation_i"),
+    *("overlay", "uncommon_h", "uncommon_s", "uncommon_i"),
+    *("interest", "cooccurrence_h", "cooccurrence_s", "cooccurrence_i"),
+)
+"""The seed papers' Figs. 4, 5 and 7 as one sheet: the mosaic, its three segmentations, the
+uncommon maps, the interest map and the points, four products a row."""
 
-def _sheet(folder: Path) -> np.ndarray:
-    """A contact sheet: overlay, interest map, the three segmentations, the I co-occurrence."""
-    names = [
-        "overlay",
-        "interest",
-        "segmentation_h",
-        "segmentation_s",
-        "segmentation_i",
-        "cooccurrence_i",
-    ]
+
+def _sheet(folder: Path, names: tuple[str, ...], per_row: int, zoom: int = 1) -> np.ndarray:
+    """Products of one analysis side by side, each labelled, at the first one's size."""
     tiles = [cv2.imread(str(folder / f"{n}.png"), cv2.IMREAD_COLOR) for n in names]
-    h, w = tiles[0].shape[:2]
+    h, w = tiles[0].shape[0] * zoom, tiles[0].shape[1] * zoom
     tiles = [cv2.resize(t, (w, h), interpolation=cv2.INTER_NEAREST) for t in tiles]
     for t, n in zip(tiles, names, strict=True):
         cv2.putText(t, n, (4, 14), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 3, cv2.LINE_AA)
         cv2.putText(t, n, (4, 14), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 255, 255), 1, cv2.LINE_AA)
-    return np.vstack([np.hstack(tiles[:3]), np.hstack(tiles[3:])])
+    rows = [np.hstack(tiles[i : i + per_row]) for i in range(0, len(tiles), per_row)]
+    return np.vstack(rows)
+
+
+def _seed_case(out: Path, seed: int) -> int:
+    """The seed's own case (a pale cliff, two wet stains) through the faithful profile."""
+    scene = seed_cliff(seed, shadow=False)
+    path = out / "seed-case.png"
+    write_png(path, scene.image)
+    folder = out / "seed-case"
+    status = analyze_files([str(path)], AnalyzeOptions(folder, "paper", PROFILES["paper"]))
+    write_png(
+        folder / "seed-case" / "reproduction.png", _sheet(folder / "seed-case", REPRODUCTION, 4, 2)
+    )
+    labels = cv2.dilate(scene.target_labels, np.ones((7, 7), np.uint8))
+    points = json.loads((folder / "seed-case" / "result.json").read_text())["points"]
+    stains = sum(bool(labels[round(p["y"]), round(p["x"])]) for p in points[:2])
+    print(
+        f"seed case (paper profile): {stains} of 2 wet stains in the top two points; "
+        f"reproduction sheet {folder / 'seed-case' / 'reproduction.png'}"
+    )
+    return status
 
 
 def run_demo(out: Path, seed: int) -> int:
@@ -45,7 +76,7 @@ def run_demo(out: Path, seed: int) -> int:
         opts = AnalyzeOptions(out / name, name, params)
         status |= analyze_files([str(scene_path)], opts)
         folder = out / name / "scene"
-        write_png(folder / "sheet.png", _sheet(folder))
+        write_png(folder / "sheet.png", _sheet(folder, SHEET, 3))
         points = json.loads((folder / "result.json").read_text())["points"]
         print(f"  {name:8s} products in {folder}/ (overlay.png, sheet.png, result.json, ...)")
         for p in points:
@@ -53,4 +84,4 @@ def run_demo(out: Path, seed: int) -> int:
             dist = float(np.hypot(near.x - p["x"], near.y - p["y"]))
             found = f"found the {near.kind}" if dist <= near.radius + 6 else "no planted target"
             print(f"    #{p['rank']} ({p['x']:.0f}, {p['y']:.0f}): {found}; {p['description']}")
-    return status
+    return status | _seed_case(out, seed)

@@ -10,7 +10,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-__all__ = ["MAX_PIXELS", "ImageError", "read_image", "write_atomic", "write_png"]
+__all__ = ["MAX_PIXELS", "ImageError", "read_image", "write_atomic", "write_jpeg", "write_png"]
 
 MAX_PIXELS = 400_000_000
 """Refuse images above this many pixels (an 8000x4000 panorama is 32 M)."""

@@ -291,7 +291,7 @@ def _blocks(prof: np.ndarray, smooth: np.ndarray, params: VisionParams) -> tuple
     )[: params.max_classes]
     # A block's mass is the pair count inside its square; light blocks merge into a
     # neighbour (their maximum is dropped and the valleys are drawn again) until all count.
-    cum = np.pad(smooth.astype(np.float64).cumsum(0).cumsum(1), ((1, 0), (1, 0)))
+    cum = cv2.integral(smooth, sdepth=cv2.CV_64F)  # cum[i, j] = sum of smooth[:i, :j]
     total = cum[-1, -1]
     while True:
         centres = sorted(kept)

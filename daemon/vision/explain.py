@@ -52,6 +52,8 @@ def colour_name(hue_deg: float, saturation: float, intensity: float) -> str:
 
 
 _ANGLES = np.arange(256) * (2 * math.pi / 256.0)
+_SAMPLE = 1 << 18
+"""Pixels enough to describe a whole image's colour and tones."""
 
 
 def _median(values: np.ndarray) -> float:
@@ -85,8 +87,10 @@ def plain_lines(points: list[InterestPoint], hsi: HSIPlanes) -> list[str]:
     dark brown patch, darker than 99 % of the image; 0.79 % of the area
     """
     rows, cols = hsi.i.shape
-    whole = _typical(hsi.h, hsi.s, hsi.i)
-    below = np.concatenate([[0], np.cumsum(np.bincount(hsi.i.ravel(), minlength=256))])
+    step = max(1, math.isqrt(rows * cols // _SAMPLE))  # the whole image's colour and tones
+    h, sat, i = (plane[::step, ::step] for plane in hsi.planes)  # from a lattice of pixels
+    whole = _typical(h, sat, i)
+    below = np.concatenate([[0], np.cumsum(np.bincount(i.ravel(), minlength=256))])
     lines = []
     for point in points:
         radius = max(point.radius, 1.0)
@@ -119,21 +123,25 @@ def plain_lines(points: list[InterestPoint], hsi: HSIPlanes) -> list[str]:
 
 
 def explain_points(
-    points: list[InterestPoint], segs: tuple[Segmentation, ...], params: VisionParams
+    points: list[InterestPoint],
+    segs: tuple[Segmentation, ...],
+    params: VisionParams,
+    maps: list[np.ndarray] | None = None,
 ) -> list[list[dict]]:
     """Say, for each point, which planes and classes made it interesting.
 
     For each plane: its share of the score (the Gaussian-weighted mean of its weighted
     uncommon map around the point, which is exactly what the blur summed) and the class that
     contributed most there (rank k of K, its value, its share of the image and its mean
-    uncommon value there).
+    uncommon value there). ``maps`` are the planes' uncommon maps, when the caller has them.
     """
     if not points:
         return []
     rows, cols = segs[0].labels.shape
     sigma = params.sigma((rows, cols))
     rad = max(1, math.ceil(2.5 * sigma))
-    maps = [uncommon_map(seg, params) for seg in segs]
+    if maps is None:
+        maps = [uncommon_map(seg, params) for seg in segs]
     out = []
     for point in points:
         x, y = round(point.x), round(point.y)

@@ -83,16 +83,22 @@ def _factor(sigma: float, shape: tuple[int, int], exact: bool) -> int:
     return f
 
 
-def summed_uncommon(segs: tuple[Segmentation, ...], params: VisionParams) -> np.ndarray:
-    """The weighted sum of the H, S, I uncommon maps, (M, N) float32."""
+def summed_uncommon(
+    segs: tuple[Segmentation, ...], params: VisionParams, maps: list[np.ndarray] | None = None
+) -> np.ndarray:
+    """The weighted sum of the H, S, I uncommon maps (given, or made here), (M, N) float32."""
+    if maps is None:
+        maps = [uncommon_map(seg, params) for seg in segs]
     total = np.zeros(segs[0].labels.shape, np.float32)
-    for seg, weight in zip(segs, params.plane_weights, strict=True):
+    for umap, weight in zip(maps, params.plane_weights, strict=True):
         if weight:
-            cv2.scaleAdd(uncommon_map(seg, params), weight, total, dst=total)
+            cv2.scaleAdd(umap, weight, total, dst=total)
     return total
 
 
-def interest_map(segs: tuple[Segmentation, ...], params: VisionParams) -> InterestMap:
+def interest_map(
+    segs: tuple[Segmentation, ...], params: VisionParams, total: np.ndarray | None = None
+) -> InterestMap:
     """Sum the H, S, I uncommon maps with their weights and blur with sigma B.
 
     Parameters
@@ -102,6 +108,9 @@ def interest_map(segs: tuple[Segmentation, ...], params: VisionParams) -> Intere
     params : VisionParams
         Uses ``plane_weights``, the blur fields, ``isotropy``, ``exact_blur`` and
         the uncommon fields.
+
+    total : (M, N) float32 ndarray, optional
+        :func:`summed_uncommon` of ``segs``, when the caller already has it.
 
     Returns
     -------
@@ -120,7 +129,8 @@ def interest_map(segs: tuple[Segmentation, ...], params: VisionParams) -> Intere
     >>> bool(imap.full()[30, 30] > imap.full()[5, 5])
     True
     """
-    total = summed_uncommon(segs, params)
+    if total is None:
+        total = summed_uncommon(segs, params)
     rows, cols = total.shape
     sigma = params.sigma((rows, cols))
     f = _factor(sigma, (rows, cols), params.exact_blur)
@@ -132,6 +142,9 @@ def interest_map(segs: tuple[Segmentation, ...], params: VisionParams) -> Intere
             total, (total.shape[1] // f, total.shape[0] // f), interpolation=cv2.INTER_AREA
         )
     blurred = _blur(total, sigma, f)
+    if params.wide_share > 0:  # blend in the same map seen at wide_scale x B
+        wide = cv2.GaussianBlur(blurred, (0, 0), sigma / f * math.sqrt(params.wide_scale**2 - 1))
+        blurred = cv2.addWeighted(blurred, 1.0 - params.wide_share, wide, params.wide_share, 0.0)
     if params.isotropy == 0:
         return InterestMap(blurred, f, (rows, cols))
     grid = blurred * _roundness(blurred, sigma / f, params.isotropy)
@@ -187,7 +200,8 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     connected part of the map above ``valley`` x its height over the map's median that
     holds it; a peak whose
     patch holds a chosen point is that point's target again. A point's radius is that of a
-    disc of its patch's area (the separation without ``valley``). Patches are taken on the
+    disc of its patch's area (the separation without ``valley``), and its position the
+    patch's centre of mass (the refined peak without ``valley``). Patches are taken on the
     plain blurred map when ``grid`` was reshaped by ``isotropy``.
 
     Examples
@@ -202,8 +216,8 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     >>> ridge[10, 5:55] = 1.0
     >>> ridge[10, [10, 45]] = 1.2                   # two bumps on one ridge: one target
     >>> pts = find_points(InterestMap(ridge, 1, (20, 60)), PAPER.replace(blur=3.0, valley=0.5))
-    >>> [(p.x, p.y) for p in pts]
-    [(10.0, 10.0)]
+    >>> [(round(p.x), round(p.y), round(p.radius, 1)) for p in pts]
+    [(10, 10, 4.0)]
     """
     grid = imap.grid
     if params.top_n == 0 or grid.size == 0:
@@ -224,33 +238,51 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     best = min(len(values), 32 * params.top_n)
     cut = np.partition(values, len(values) - best)[len(values) - best] if best else 0.0
     first = values >= cut
-    chosen: list[tuple[int, int, float, float]] = []  # row, col, value, radius (grid)
+    chosen: list[tuple[int, int, float, float, float, float]] = []  # peak r, c; y, x; ...
     support = grid if imap.blurred is None else imap.blurred
     base = float(np.median(support))  # heights count from the map's typical level
     for subset in (np.flatnonzero(first), np.flatnonzero(~first)):
         order = subset[np.lexsort((cols[subset], rows[subset], -values[subset]))]
         for i in order:
             r, c, value = int(rows[i]), int(cols[i]), float(values[i])
-            if any((r - y) ** 2 + (c - x) ** 2 < sep * sep for y, x, _, _ in chosen):
+            if any((r - q[0]) ** 2 + (c - q[1]) ** 2 < sep * sep for q in chosen):
                 continue
-            radius = sep
+            (y, x), radius = _refine(grid, r, c), sep
             if params.valley > 0:
                 level = base + params.valley * (float(support[r, c]) - base)
                 patch = _patch(support, r, c, level)
-                if any(patch[y, x] for y, x, _, _ in chosen):
+                if any(patch[q[0], q[1]] for q in chosen):
                     continue
                 radius = max(1.0, math.sqrt(float(patch.sum()) / math.pi))
-            chosen.append((r, c, value, radius))
+                top = base + _TOP * (float(support[r, c]) - base)
+                y, x = _centre(support, _patch(support, r, c, top), top, (y, x))
+            chosen.append((r, c, y, x, value, radius))
             if len(chosen) == params.top_n:
                 break
         if len(chosen) == params.top_n:
             break
-    out = []
-    for rank, (r, c, value, radius) in enumerate(chosen, start=1):
-        ry, rx = _refine(grid, r, c)
-        x, y = rx * f + (f - 1) / 2.0, ry * f + (f - 1) / 2.0
-        out.append(InterestPoint(rank, x, y, value, radius * f))
-    return out
+    return [
+        InterestPoint(rank, x * f + (f - 1) / 2.0, y * f + (f - 1) / 2.0, value, radius * f)
+        for rank, (_, _, y, x, value, radius) in enumerate(chosen, start=1)
+    ]
+
+
+_TOP = 0.9
+"""A point sits at the centre of mass of the top of its patch (above 90 % of its height):
+on a wide patch that is steadier under noise than its highest cell, on a small spot it is
+the spot."""
+
+
+def _centre(
+    support: np.ndarray, patch: np.ndarray, level: float, peak: tuple[float, float]
+) -> tuple[float, float]:
+    """The patch's centre of mass above ``level``: where the target is, steadier under
+    sensor noise than its highest cell (a wide patch's peak wanders with the texture).
+    Falls back to the peak when the centre lies outside the patch (a crescent)."""
+    ys, xs = np.nonzero(patch)
+    weight = support[ys, xs] - level + 1e-9
+    y, x = float(ys @ weight / weight.sum()), float(xs @ weight / weight.sum())
+    return (y, x) if patch[round(y), round(x)] else peak
 
 
 def _patch(grid: np.ndarray, r: int, c: int, level: float) -> np.ndarray:

@@ -92,6 +92,11 @@ class VisionParams:
     the same outcrop gives the same points at any resolution."""
     blur_mode: BlurMode = "fwhm"
     """sigma: B is the Gaussian sigma; fwhm: B is the full width at half maximum."""
+    wide_share: float = 0.0
+    wide_scale: float = 2.5
+    """The interest map is (1 - wide_share) x the B blur + wide_share x a blur of
+    ``wide_scale`` x B: a small spot keeps its sharp peak while a wide patch, whose peak at B
+    is noisy texture, is scored by its steadier mean."""
     isotropy: float = 0.0
     """Share of the blurred interest that depends on the shape of its surroundings: the
     score is B-blurred interest x (1 - isotropy + isotropy x iso), iso = lambda_small /
@@ -131,6 +136,8 @@ class VisionParams:
             raise ValueError(f"unknown hue_grey mode {self.hue_grey!r}")
         if self.blur_fraction < 0 or self.value_rarity < 0 or not 0 <= self.isotropy <= 1:
             raise ValueError("blur_fraction, value_rarity >= 0; isotropy in [0, 1]")
+        if not 0 <= self.wide_share <= 1 or self.wide_scale <= 1:
+            raise ValueError("wide_share in [0, 1], wide_scale > 1")
         if not 0 <= self.valley < 1 or self.max_pixels < 0:
             raise ValueError("valley in [0, 1), max_pixels >= 0")
         if self.blur_mode not in ("sigma", "fwhm"):

@@ -11,8 +11,9 @@ import numpy as np
 from .cooccurrence import Segmentation, segment_plane
 from .explain import explain_points, plain_lines
 from .hsi import HSIPlanes, hue_histogram_rotation, rgb_to_hsi
-from .interest import InterestMap, InterestPoint, find_points, interest_map
+from .interest import InterestMap, InterestPoint, find_points, interest_map, summed_uncommon
 from .params import VisionParams
+from .uncommon import uncommon_map
 
 __all__ = ["Analysis", "analyze", "as_bgr8"]
 
@@ -113,11 +114,12 @@ def analyze(bgr: np.ndarray, params: VisionParams) -> Analysis:
     )
     t2 = time.perf_counter()
     timings["segment"] = (t2 - t1) * 1e3
-    imap = interest_map(segs, params)
+    maps = [uncommon_map(seg, params) for seg in segs]
+    imap = interest_map(segs, params, summed_uncommon(segs, params, maps))
     points = find_points(imap, params)
     t3 = time.perf_counter()
     timings["interest"] = (t3 - t2) * 1e3
-    explanations = explain_points(points, segs, params)
+    explanations = explain_points(points, segs, params, maps)
     descriptions = plain_lines(points, hsi)
     timings["explain"] = (time.perf_counter() - t3) * 1e3
     timings["total"] = (time.perf_counter() - t0) * 1e3

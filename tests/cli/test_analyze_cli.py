@@ -6,6 +6,7 @@ import json
 import struct
 import subprocess
 import sys
+import tracemalloc
 import zlib
 from pathlib import Path
 
@@ -62,7 +63,8 @@ def test_products_and_result_json(tmp_path, scene_png):
     assert doc["params"]["blur"] == 10.0 and doc["params"]["top_n"] == 2
     assert len(doc["points"]) == 2
     for p in doc["points"]:
-        assert {"rank", "x", "y", "score", "summary", "explanation"} <= set(p)
+        assert {"rank", "x", "y", "radius", "score", "description", "summary"} <= set(p)
+        assert p["explanation"] and p["description"].endswith("% of the area")
         assert 0 <= p["x"] < 288 and 0 <= p["y"] < 216
     assert set(doc["classes"]) == {"H", "S", "I"}
     assert doc["timing_ms"]["total"] > 0
@@ -100,6 +102,47 @@ def test_json_lines_contract_and_downsample(tmp_path, scene_png):
         for p in doc["points"]
     )
     assert best < 4 * (target.radius + 6), "points must come back in input-image pixels"
+
+
+def test_a_12_mp_photo_needs_no_flags(tmp_path):
+    """A 4000x3000 photo with three planted targets: analysed at the profile's working size
+    with no flag, three distinct points in photo pixels, a small overlay PNG beside a
+    full-size JPEG."""
+    rng = np.random.default_rng(3)
+    small = outcrop_scene(21, n_targets=0, shadows=False).image
+    photo = cv2.resize(small, (4000, 3000), interpolation=cv2.INTER_CUBIC)
+    photo = np.clip(photo + rng.normal(0, 4, photo.shape), 0, 255).astype(np.uint8)
+    spots = {(900, 700): (40, 150, 60), (2900, 1100): (30, 40, 190), (2000, 2400): (235,) * 3}
+    for (x, y), colour in spots.items():
+        cv2.circle(photo, (x, y), 70, colour, -1)
+    path = tmp_path / "photo.png"
+    cv2.imwrite(str(path), photo)
+    proc = cyborgd("analyze", str(path), "--out", str(tmp_path / "o"), cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    folder = tmp_path / "o" / "photo"
+    doc = json.loads((folder / "result.json").read_text())
+    assert (doc["width"], doc["height"]) == (4000, 3000)
+    assert doc["analysed"]["width"] * doc["analysed"]["height"] <= doc["params"]["max_pixels"]
+    found = {
+        min(spots, key=lambda s: np.hypot(p["x"] - s[0], p["y"] - s[1])): p for p in doc["points"]
+    }
+    assert len(found) == 3
+    for (x, y), p in found.items():
+        assert np.hypot(p["x"] - x, p["y"] - y) < 80
+    assert (folder / "overlay.png").stat().st_size < 2_000_000
+    assert cv2.imread(str(folder / "overlay_full.jpg")).shape == (3000, 4000, 3)
+
+
+def test_12_mp_analysis_stays_within_the_memory_bound():
+    from daemon.analyze import analyze_image
+    from daemon.vision.params import DEFAULT
+
+    photo = np.random.default_rng(1).integers(0, 256, (3000, 4000, 3), dtype=np.uint8)
+    tracemalloc.start()
+    analyze_image(photo, DEFAULT)
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    assert peak < 1 << 30
 
 
 def _png_header_only(width: int, height: int) -> bytes:
