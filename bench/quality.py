@@ -54,7 +54,7 @@ from bench.baselines import (
     spectral_residual,
 )
 from daemon.analyze import analyze_image, input_points
-from daemon.regimes import DESCRIPTIONS, REGIMES
+from daemon.regimes import DESCRIPTIONS, REGIMES, seed_cliff
 from daemon.scene import Scene
 from daemon.vision.interest import InterestPoint
 from daemon.vision.params import DEFAULT, PAPER, VisionParams
@@ -258,6 +258,37 @@ def verdict(regime: str, results: dict[str, dict[str, float]]) -> str:
     return f"{regime:6s} default: {', '.join(parts)}; {how} every baseline: {won}"
 
 
+def seed_case(n_cliffs: int = 100, seed: int = 0, params: VisionParams = PAPER) -> dict:
+    """The ``paper`` profile on the seed's own case (``seed_cliff`` without its ledge
+    shadow): how often the two wet stains are the top two points, and how much of each plane
+    is left unsegmented (mean, and the worst cliff). With the shadow too, for comparison."""
+    out: dict = {}
+    for shadow in (False, True):
+        both, unsegmented = 0, []
+        for i in range(n_cliffs):
+            scene = seed_cliff(seed + i, shadow=shadow)
+            bgr, res = analyze_image(scene.image, params)
+            unsegmented.append([float((s.labels == 0).mean()) for s in res.segmentations])
+            gt = truth(scene, scaled_tolerance(scene.image.shape[:2], 6.0))
+            rows, cols = gt.near_target.shape
+            top2 = set()
+            for p in input_points(bgr.shape, res)[:2]:
+                r, c = min(rows - 1, max(0, round(p.y))), min(cols - 1, max(0, round(p.x)))
+                top2.add(gt.owner(r, c, True) if gt.near_target[r, c] else None)
+            both += top2 == {0, 1}
+        key = "with_shadow" if shadow else "seed_case"
+        out[key] = {
+            "stains_top2": both / n_cliffs,
+            "unsegmented_mean": dict(
+                zip("HSI", np.mean(unsegmented, axis=0).round(4).tolist(), strict=True)
+            ),
+            "unsegmented_max": dict(
+                zip("HSI", np.max(unsegmented, axis=0).round(4).tolist(), strict=True)
+            ),
+        }
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--regimes", default=",".join(REGIMES), help="comma list, default all")
@@ -298,6 +329,19 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nverdicts (goals {goals}; empty: repeat@1 only):")
     for name, table in results.items():
         print(verdict(name, table))
+    case = seed_case(100, args.seed)
+    for key, label in (("seed_case", "seed case"), ("with_shadow", "with a ledge shadow")):
+        c = case[key]
+        means = "/".join(f"{100 * v:.1f}" for v in c["unsegmented_mean"].values())
+        worst = "/".join(f"{100 * v:.0f}" for v in c["unsegmented_max"].values())
+        line = (
+            f"paper, {label}, 100 cliffs: both stains top two {100 * c['stains_top2']:.0f} %; "
+            f"unsegmented H/S/I mean {means} %, worst cliff {worst} %"
+        )
+        if key == "seed_case":
+            met = c["stains_top2"] >= 0.9 and max(c["unsegmented_mean"].values()) <= 0.1
+            line += f" (goal >= 90 %, <= 10 %: {'met' if met else 'NOT met'})"
+        print(line)
     return 0
 
 

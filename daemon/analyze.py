@@ -68,7 +68,7 @@ def analyze_image(
     work = bgr
     if downsample != 1.0:
         rows, cols = bgr.shape[:2]
-        size = (max(1, round(cols / downsample)), max(1, round(rows / downsample)))
+        size = (max(1, int(cols / downsample)), max(1, int(rows / downsample)))
         work = cv2.resize(bgr, size, interpolation=cv2.INTER_AREA)
     return bgr, analyze(work, params)
 

@@ -142,9 +142,6 @@ def interest_map(
             total, (total.shape[1] // f, total.shape[0] // f), interpolation=cv2.INTER_AREA
         )
     blurred = _blur(total, sigma, f)
-    if params.wide_share > 0:  # blend in the same map seen at wide_scale x B
-        wide = cv2.GaussianBlur(blurred, (0, 0), sigma / f * math.sqrt(params.wide_scale**2 - 1))
-        blurred = cv2.addWeighted(blurred, 1.0 - params.wide_share, wide, params.wide_share, 0.0)
     if params.isotropy == 0:
         return InterestMap(blurred, f, (rows, cols))
     grid = blurred * _roundness(blurred, sigma / f, params.isotropy)

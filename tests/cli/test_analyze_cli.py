@@ -14,7 +14,9 @@ import cv2
 import numpy as np
 import pytest
 
+from daemon.analyze import analyze_image
 from daemon.scene import outcrop_scene
+from daemon.vision.params import DEFAULT
 
 PRODUCTS = [
     *(
@@ -134,9 +136,6 @@ def test_a_12_mp_photo_needs_no_flags(tmp_path):
 
 
 def test_12_mp_analysis_stays_within_the_memory_bound():
-    from daemon.analyze import analyze_image
-    from daemon.vision.params import DEFAULT
-
     photo = np.random.default_rng(1).integers(0, 256, (3000, 4000, 3), dtype=np.uint8)
     tracemalloc.start()
     analyze_image(photo, DEFAULT)

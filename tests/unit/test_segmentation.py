@@ -2,8 +2,10 @@ import cv2
 import numpy as np
 import pytest
 
+from daemon.regimes import seed_cliff
 from daemon.vision.cooccurrence import cooccurrence_histogram, segment_plane
 from daemon.vision.params import DEFAULT, PAPER, profile
+from daemon.vision.pipeline import analyze
 from daemon.vision.uncommon import uncommon_map
 
 
@@ -113,9 +115,6 @@ def test_the_seed_case_both_stains_are_the_top_two_with_paper():
     """The seed's own situation (Figs. 4, 5, 7): a pale layered cliff with two dark wet
     stains of 1-2 % of the image. The faithful profile must put the stains first and second
     on most cliffs, with coherent regions: little of any plane left unsegmented."""
-    from daemon.regimes import seed_cliff
-    from daemon.vision.pipeline import analyze
-
     both, unsegmented = 0, []
     for seed in range(20):
         scene = seed_cliff(seed, shadow=False)
