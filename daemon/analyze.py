@@ -48,7 +48,7 @@ def working_reduction(shape: tuple[int, ...], params: VisionParams) -> float:
     """How much to reduce an image of this shape before analysis: 1 up to ``max_pixels``.
 
     >>> from daemon.vision.params import DEFAULT
-    >>> working_reduction((3000, 4000), DEFAULT) > 3.0, working_reduction((480, 640), DEFAULT)
+    >>> working_reduction((3000, 4000), DEFAULT) > 3.0, working_reduction((300, 400), DEFAULT)
     (True, 1.0)
     """
     pixels = shape[0] * shape[1]

@@ -47,9 +47,9 @@ def test_quality_benchmark_smoke():
 def test_quality_cli_runs_chosen_regimes_and_prints_a_verdict_each(capsys):
     assert quality.main(["--regimes", "seed,empty", "--scenes", "1", "--json"]) == 0
     assert list(json.loads(capsys.readouterr().out)) == ["seed", "empty"]
-    assert quality.main(["--regimes", "seed,empty", "--scenes", "1"]) == 0
+    assert quality.main(["--regimes", "seed,empty", "--scenes", "1", "--cliffs", "2"]) == 0
     out = capsys.readouterr().out
-    assert "108x192, tolerance 3.7 px" in out
+    assert "108x192, tolerance 3.7 px" in out and "paper, seed case, 2 cliffs" in out
     assert [line.split()[0] for line in out.splitlines()[-2:]] == ["seed", "empty"]
     with pytest.raises(SystemExit):
         quality.main(["--regimes", "nope", "--scenes", "1"])
