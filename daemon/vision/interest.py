@@ -40,7 +40,8 @@ class InterestMap:
     """The blurred interest map, held on a grid ``factor`` times coarser than the image."""
 
     grid: np.ndarray
-    """(m, n) float32, in uncommon units (0..24 for unit weights)."""
+    """(m, n) float32, in uncommon units above the image's median (up to 24 for unit
+    weights)."""
     factor: int
     shape: tuple[int, int]
     """(M, N) of the analysed image."""
@@ -132,6 +133,10 @@ def interest_map(
     if total is None:
         total = summed_uncommon(segs, params)
     rows, cols = total.shape
+    # Heights count from the typical level (the median, on a lattice of <= 2^18 pixels), and
+    # outside the frame counts as typical rock.
+    step = max(1, math.isqrt(rows * cols >> 18))
+    typical = np.float32(np.median(total[::step, ::step]))
     sigma = params.sigma((rows, cols))
     f = _factor(sigma, (rows, cols), params.exact_blur)
     if f > 1:
@@ -141,7 +146,7 @@ def interest_map(
         total = cv2.resize(
             total, (total.shape[1] // f, total.shape[0] // f), interpolation=cv2.INTER_AREA
         )
-    blurred = _blur(total, sigma, f)
+    blurred = _blur(total - typical, sigma, f)
     if params.isotropy == 0:
         return InterestMap(blurred, f, (rows, cols))
     grid = blurred * _roundness(blurred, sigma / f, params.isotropy)
@@ -149,9 +154,15 @@ def interest_map(
 
 
 def _blur(grid: np.ndarray, sigma: float, f: int) -> np.ndarray:
-    """Blur a grid of f x f block means so the result equals a sigma blur of the image."""
+    """Blur a grid of f x f block means so the result equals a sigma blur of the image.
+
+    Outside the frame counts as 0 (the typical level, once the median is taken off), not as
+    a mirror image: a patch cut by the frame is only partly seen and scores for what is seen.
+    Mirrored, a half patch at the border scored as a whole one, and vignetted frame edges
+    drew 55-90 % of the best points on three real sets whose targets lie there 8-25 % of
+    the time."""
     residual = math.sqrt(max(sigma**2 - (f * f - 1) / 12.0, 1e-6)) / f
-    return cv2.GaussianBlur(grid, (0, 0), residual, borderType=cv2.BORDER_REFLECT_101)
+    return cv2.GaussianBlur(grid, (0, 0), residual, borderType=cv2.BORDER_CONSTANT)
 
 
 def _curvatures(smooth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

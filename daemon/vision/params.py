@@ -185,7 +185,7 @@ DEFAULT = VisionParams(
     value_rarity=0.5,
     blur_mode="sigma",
     blur_fraction=0.008,
-    isotropy=0.5,
+    isotropy=0.75,
     valley=0.7,
     max_pixels=1 << 17,
 )
@@ -201,7 +201,7 @@ and images (``bench/quality.py`` seeds 1000+, ``bench/real.py``) and is reported
 * B = 0.8 % of the image diagonal, so the same outcrop gives the same points at any size;
 * two peaks are one target unless the map dips below 70 % of the lower one between them,
   so three points are three targets whatever their size;
-* half the score depends on the roundness of the surroundings, which takes the long
+* 3/4 of the score depends on the roundness of the surroundings, which takes the long
   ledge shadows the seed papers complain about off the top;
 * images above 0.13 MP are analysed at 0.13 MP (a 12 MP photo needs no flags): area
   averaging quiets sensor noise and texture before segmentation, and at B = 0.8 % of the
