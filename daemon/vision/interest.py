@@ -5,6 +5,8 @@ the Gaussian sigma, in analysed-image pixels, or as a fraction of the image diag
 (``blur_fraction``). The seed does not say; on its own case (a 108x192 cliff with wet stains
 of 1-2 % of the image, ~10 px across) the sigma reading smears each stain below the
 bed-scale structure around it, while the FWHM reading keeps it (``bench.quality``, seed).
+Heights count from the image's median, and the blur counts the outside of the frame as that
+typical level.
 
 Points are peaks at least B apart. With ``valley`` > 0 two peaks are one target unless the
 map dips below ``valley`` x the lower peak between them (a persistence test, free of any
@@ -204,7 +206,8 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     with ``valley`` > 0, on a patch of its own.
 
     A peak is a local maximum over a (2 d + 1)^2 window (d = separation) that stands above
-    the map's minimum: a flat map (no contrast) yields no points. A peak's patch is the
+    the map's minimum and above 0 (the image's typical level): a flat map (no contrast)
+    yields no points, and nothing commoner than typical is one. A peak's patch is the
     connected part of the map above ``valley`` x its height over the map's median that
     holds it; a peak whose
     patch holds a chosen point is that point's target again. A point's radius is that of a
@@ -238,7 +241,7 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     span = float(grid.max()) - floor
     if span <= 1e-6:
         return []
-    peak = (grid >= local) & (grid > floor + 1e-3 * span)
+    peak = (grid >= local) & (grid > max(floor + 1e-3 * span, 0.0))
     rows, cols = np.nonzero(peak)
     values = grid[rows, cols]
     # Greedy picking rarely looks past the first few peaks: sort only the best (ties at the

@@ -164,12 +164,12 @@ seed's own case (``daemon.regimes.seed_cliff``, 108x192, two wet stains):
 
 * classes are blocks of values between valleys of the diagonal profile (persistence >= 50 %
   of a maximum's height, >= 0.5 % of the pairs; histogram smoothed by 3 bins), so regions are
-  coherent and only boundaries stay unsegmented (disc classes left 50-74 % of each plane
+  coherent and only boundaries stay unsegmented (disc classes left 64-91 % of each plane
   unsegmented);
 * hue is undefined (H = 0, as 2004-era code did) below S = 32 of 255: on pale rock hue is
-  sensor noise, and kept it leaves 40 % of H unsegmented;
+  sensor noise, and kept down to S = 5 it leaves 32 % of H unsegmented;
 * B is the blur's full width at half maximum (sigma 4.25 px): read as sigma it smears a stain
-  of ~10 px below the bed-scale structure (stains top two on 19 % of cliffs instead of 67 %).
+  of ~10 px into the bed-scale structure (stains top two on 50 % of cliffs instead of 64 %).
 """
 
 DEFAULT = VisionParams(
