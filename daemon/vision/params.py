@@ -94,10 +94,10 @@ class VisionParams:
     """sigma: B is the Gaussian sigma; fwhm: B is the full width at half maximum."""
     isotropy: float = 0.0
     """Share of the blurred interest that depends on the shape of its surroundings: the
-    score is B-blurred interest x (1 - isotropy + isotropy x iso), iso = lambda_small /
-    lambda_large of the map's curvature at twice B (1 on a round patch, 0 along a ridge).
-    Long ledge shadows and bed contacts, rare only along their length, lose their lead over
-    compact patches, without the all-or-nothing of ``blob``."""
+    score is the B-blurred interest (above the image's median) x (1 - isotropy + isotropy x
+    iso), iso = lambda_small / lambda_large of the map's curvature at twice B (1 on a round
+    patch, 0 along a ridge). Long ledge shadows and bed contacts, rare only along their
+    length, lose their lead over compact patches; a long target rare enough still counts."""
     valley: float = 0.0
     """Two peaks are one target unless the map falls below this fraction of the lower one
     between them (0: only the separation keeps points apart, as the seed did)."""
