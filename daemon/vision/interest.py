@@ -209,10 +209,10 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     the map's minimum and above 0 (the image's typical level): a flat map (no contrast)
     yields no points, and nothing commoner than typical is one. A peak's patch is the
     connected part of the map above ``valley`` x its height over the map's median that
-    holds it; a peak whose
-    patch holds a chosen point is that point's target again. A point's radius is that of a
-    disc of its patch's area (the separation without ``valley``), and its position the
-    patch's centre of mass (the refined peak without ``valley``). Patches are taken on the
+    holds it; a peak whose patch holds a chosen point is that point's target again. A
+    point's radius is that of a disc of its patch's area, and its position the centre of
+    mass of the patch's top (``_TOP``); without ``valley`` they are the separation and the
+    refined peak. Patches are taken on the
     plain blurred map when ``grid`` was reshaped by ``isotropy``.
 
     Examples
