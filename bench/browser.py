@@ -99,6 +99,11 @@ class Browser:
         actions = [{"type": "pointer", "id": "mouse", "actions": pointer}]
         self._call("POST", "/actions", {"actions": actions})
 
+    def console(self) -> list[dict[str, Any]]:
+        """The browser log since the last call: console messages, failed loads, CSP
+        violations (``level`` SEVERE for the errors)."""
+        return self._call("POST", "/se/log", {"type": "browser"})
+
     def screenshot(self) -> bytes:
         return base64.b64decode(self._call("GET", "/screenshot"))
 
@@ -138,6 +143,7 @@ def chromium() -> Iterator[Browser]:
                 "capabilities": {
                     "alwaysMatch": {
                         "browserName": "chrome",
+                        "goog:loggingPrefs": {"browser": "ALL"},
                         "goog:chromeOptions": {
                             "binary": CHROMIUM,
                             "args": [*_FLAGS, f"--user-data-dir={profile}"],

@@ -31,6 +31,7 @@ from protocol.envelope import decode
 from protocol.keys import Keys
 from protocol.messages import Hello, PtuGoto, TakeControl
 from protocol.transport import Transport
+from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 FPS = 25
 
@@ -39,10 +40,7 @@ class _Watcher:
     """One subscriber session recording each frame's delivery latency."""
 
     def __init__(self, endpoint: str) -> None:
-        cfg = zenoh.Config()
-        for key, value in Transport(connect=(endpoint,)).json5_items():
-            cfg.insert_json5(key, value)
-        self.session = zenoh.open(cfg)
+        self.session = zenoh.open(zenoh.Config.from_json5(Transport(connect=(endpoint,)).json5()))
         self.samples: list[float] = []
         self.recording = False
         self.sub = self.session.declare_subscriber(
@@ -62,11 +60,11 @@ class _Watcher:
 async def _commands(client: RigClient, n: int) -> dict[str, dict[str, float]]:
     here = PtuGoto(0.0, 0.0)
     out = {}
-    for name, msg in (("hello", Hello(1, 0)), ("ptu/goto", here)):
+    for name, msg in (("hello", Hello(PROTOCOL_MAJOR, PROTOCOL_MINOR)), ("ptu/goto", here)):
         samples = []
         for _ in range(n):
             t0 = time.perf_counter()
-            await client.call(name, msg)
+            await client.call(msg)
             samples.append(time.perf_counter() - t0)
             await asyncio.sleep(0.02)
         out[name] = latency(samples)
@@ -87,7 +85,7 @@ async def _run(seconds: float, n_commands: int) -> list[dict]:
         async with launch(["--config", str(config)], Path(tmp) / "cyborgd.log"):
             with RigClient.open(Transport(connect=(endpoint,)), "busbench", "bench") as client:
                 await client.wait_alive()
-                await client.command("control/take", TakeControl("bench"))
+                await client.command(TakeControl())
                 for n in (0, 1, 16):
                     watchers = [_Watcher(endpoint) for _ in range(n)]
                     try:

@@ -40,7 +40,7 @@ class _Motion:
 
     def __init__(self, client: RigClient) -> None:
         self.started: asyncio.Future[float] | None = None
-        self.states = client.subscribe(client.keys.ptu_state)
+        self.states = client.subscribe(client.keys.ptu_state, PtuState)
         self.task = asyncio.create_task(self._follow())
 
     async def _follow(self) -> None:
@@ -69,7 +69,7 @@ async def _clicks(browser: Browser, client: RigClient, motion: _Motion, n: int) 
         side = 0.75 if i % 2 == 0 else 0.25
         started = motion.arm()
         t0 = time.time() * 1e3
-        await client.command("ptu/look", PtuLook(side, 0.5, pan=0.0, tilt=0.0))
+        await client.command(PtuLook(side, 0.5, pan=0.0, tilt=0.0))
         bus.append((await asyncio.wait_for(started, 10) - t0) / 1e3)
     await asyncio.to_thread(browser.click, "#take")
     await asyncio.to_thread(browser.wait, "document.getElementById('reply').textContent")
@@ -115,7 +115,7 @@ async def _run(seconds: float, clicks: int, screenshot: Path | None) -> dict:
                         recording = False
                         stats = browser.js("return window.cyborgStats();")
                         page = {"median_ms": stats["p50"], "p99_ms": stats["p99"]}
-                        await client.command("control/take", TakeControl("bench"))
+                        await client.command(TakeControl())
                         click = await _clicks(browser, client, motion, clicks)
                         if screenshot is not None:
                             await _survey_picture(browser, screenshot)

@@ -25,7 +25,7 @@ from pathlib import Path
 
 from clients.launch import free_port, launch, simulated_config
 from clients.rigclient import RigClient, run_station
-from protocol.messages import SurveyStart, TakeControl
+from protocol.messages import InterestResult, SurveyProgress, SurveyStart, TakeControl
 from protocol.transport import Transport
 
 
@@ -47,9 +47,12 @@ async def _condition(
     async with launch(["--config", str(config)], work / "cyborgd.log"):
         with RigClient.open(Transport(connect=(f"tcp/127.0.0.1:{port}",)), "bench", "bench") as c:
             await c.wait_alive()
-            progress, results = c.subscribe(c.keys.progress), c.subscribe(c.keys.result)
+            progress, results = (
+                c.subscribe(c.keys.progress, SurveyProgress),
+                c.subscribe(c.keys.result, InterestResult),
+            )
             frames = c.frames() if watch else None
-            await c.command("control/take", TakeControl("bench"))
+            await c.command(TakeControl())
             stations = []
             for run in range(runs):
                 # Alternate the centre so every run starts with a real slew.

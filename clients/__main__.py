@@ -6,10 +6,13 @@ import argparse
 import sys
 from pathlib import Path
 
+from protocol.keys import check_client
+
 from . import cli
 from .demo import run_demo
 from .keypad.app import run_keypad
-from .link import add_link_arguments
+from .link import add_link_arguments, transport
+from .operator.main import add_arguments as add_operator_arguments
 from .operator.main import run_operator
 
 
@@ -32,9 +35,16 @@ def main(argv: list[str] | None = None) -> int:
     add_link_arguments(operator, "operator")
     operator.add_argument("--host", default="127.0.0.1", help="address the page listens on")
     operator.add_argument("--port", type=int, default=8080, help="its port (0: any free one)")
+    add_operator_arguments(operator)
     operator.set_defaults(run=run_operator)
     cli.register(sub)
     args = parser.parse_args(argv)
+    if hasattr(args, "env_connect"):  # a bus client: refuse a bad name or link up front
+        try:
+            check_client(args.name)
+            transport(args, "peer")
+        except (ValueError, OSError) as exc:
+            parser.error(str(exc))
     return args.run(args)
 
 

@@ -20,17 +20,15 @@ from typing import Any
 import zenoh
 
 from protocol.messages import (
-    ArchiveData,
     ArchiveGet,
     ArchiveList,
-    ArchiveListing,
     ChooseTarget,
     Hello,
+    InterestResult,
     PtuGoto,
     PtuHalt,
     PtuState,
     ReleaseControl,
-    Status,
     SurveyProgress,
     SurveyStart,
     SurveyStatus,
@@ -60,7 +58,7 @@ def _acked(ack: Any) -> tuple[Report, str]:
 
 
 async def _pose(client: RigClient, timeout: float = 2.0) -> PtuState | None:
-    states = client.subscribe(client.keys.ptu_state, maxsize=1)
+    states = client.subscribe(client.keys.ptu_state, PtuState, maxsize=1)
     try:
         return await asyncio.wait_for(states.get(), timeout)
     except TimeoutError:
@@ -71,8 +69,8 @@ async def _pose(client: RigClient, timeout: float = 2.0) -> PtuState | None:
 
 
 async def _status(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
-    hello = await client.typed("hello", Hello(PROTOCOL_MAJOR, PROTOCOL_MINOR), Hello)
-    status = await client.typed("survey/status", SurveyStatus(), Status)
+    hello = await client.command(Hello(PROTOCOL_MAJOR, PROTOCOL_MINOR))
+    status = await client.command(SurveyStatus())
     pose = await _pose(client)
     report: Report = {
         "ok": True,
@@ -104,8 +102,8 @@ async def _status(client: RigClient, args: argparse.Namespace) -> tuple[Report, 
 
 async def _goto(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
     await client.ensure_control(args.take)
-    states = client.subscribe(client.keys.ptu_state, maxsize=1)
-    report, text = _acked(await client.command("ptu/goto", PtuGoto(args.pan, args.tilt)))
+    states = client.subscribe(client.keys.ptu_state, PtuState, maxsize=1)
+    report, text = _acked(await client.command(PtuGoto(args.pan, args.tilt)))
     if not args.wait:
         return report, text
     async with asyncio.timeout(args.timeout):
@@ -120,8 +118,8 @@ async def _goto(client: RigClient, args: argparse.Namespace) -> tuple[Report, st
 
 async def _survey(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
     await client.ensure_control(args.take)
-    progress = client.subscribe(client.keys.progress)
-    results = client.subscribe(client.keys.result)
+    progress = client.subscribe(client.keys.progress, SurveyProgress)
+    results = client.subscribe(client.keys.result, InterestResult)
     request = SurveyStart(args.rows, args.cols, args.downsample, args.profile)
 
     def show(p: SurveyProgress) -> None:
@@ -140,7 +138,7 @@ async def _survey(client: RigClient, args: argparse.Namespace) -> tuple[Report, 
 
 
 async def _fetch(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
-    reply = await client.typed("archive/get", ArchiveGet(args.session, args.product), ArchiveData)
+    reply = await client.command(ArchiveGet(args.session, args.product))
     data = reply.data
     report: Report = {
         "ok": True,
@@ -160,25 +158,25 @@ async def _fetch(client: RigClient, args: argparse.Namespace) -> tuple[Report, s
 
 
 async def _list(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
-    listing = await client.typed("archive/list", ArchiveList(args.session), ArchiveListing)
+    listing = await client.command(ArchiveList(args.session))
     return {"ok": True, **listing.to_body()}, "\n".join(listing.items)
 
 
 async def _choose(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
     await client.ensure_control(args.take)
-    return _acked(await client.command("target/choose", ChooseTarget(args.station, args.rank)))
+    return _acked(await client.command(ChooseTarget(args.station, args.rank)))
 
 
 async def _halt(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
-    return _acked(await client.command("ptu/halt", PtuHalt()))
+    return _acked(await client.command(PtuHalt()))
 
 
 async def _take(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
-    return _acked(await client.command("control/take", TakeControl(client.name)))
+    return _acked(await client.command(TakeControl()))
 
 
 async def _release(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
-    return _acked(await client.command("control/release", ReleaseControl(client.name)))
+    return _acked(await client.command(ReleaseControl()))
 
 
 async def _run(command: Command, args: argparse.Namespace) -> int:

@@ -16,6 +16,8 @@ from pathlib import Path
 
 from protocol.messages import (
     ChooseTarget,
+    InterestResult,
+    SurveyProgress,
     SurveyStart,
     TakeControl,
 )
@@ -52,9 +54,9 @@ async def _demo(out: Path, time_scale: float, seed: int) -> int:
             Transport(connect=(f"tcp/127.0.0.1:{port}",)), RIG, "demo-scientist"
         ) as client:
             await client.wait_alive()
-            progress = client.subscribe(client.keys.progress)
-            results = client.subscribe(client.keys.result)
-            await client.command("control/take", TakeControl(client.name))
+            progress = client.subscribe(client.keys.progress, SurveyProgress)
+            results = client.subscribe(client.keys.result, InterestResult)
+            await client.command(TakeControl())
             request = SurveyStart(rows=2, cols=3, downsample=4.0)
             stations = []
             for leg in range(3):
@@ -66,9 +68,7 @@ async def _demo(out: Path, time_scale: float, seed: int) -> int:
                     print(f"       {p.why}")
                 if not result.points:
                     break
-                ack = await client.command(
-                    "target/choose", ChooseTarget(result.station, result.points[0].rank)
-                )
+                ack = await client.command(ChooseTarget(result.station, result.points[0].rank))
                 print(f"  chose #1: {ack.detail}")
                 if leg < 2:
                     request = SurveyStart(rows=1, cols=2, downsample=4.0)

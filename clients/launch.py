@@ -1,4 +1,5 @@
-"""Start ``cyborgd run`` as a child process and wait until it serves (demo, tests, benchmarks).
+"""Start ``cyborgd run`` (or ``router``) as a child process and wait until it serves (demo,
+tests, benchmarks); make a field network's certificates for them.
 
 The daemon prints one JSON line (``{"ready": true, ...}``) on stdout once its bus, PTU,
 camera and worker are up; anything else it says goes to ``log``.
@@ -13,6 +14,7 @@ import os
 import re
 import signal
 import socket
+import subprocess
 import sys
 from collections.abc import AsyncIterator, Iterator, Sequence
 from dataclasses import dataclass
@@ -23,7 +25,39 @@ import zenoh
 
 from protocol.transport import Transport
 
-__all__ = ["Daemon", "free_port", "launch", "operator", "router", "simulated_config", "spawn"]
+__all__ = [
+    "CERTS",
+    "Daemon",
+    "free_port",
+    "launch",
+    "make_certificates",
+    "operator",
+    "router",
+    "simulated_config",
+    "spawn",
+]
+
+CERTS = Path(__file__).parents[1] / "systemd" / "cyborg-certs.sh"
+"""The documented certificate recipe (openssl only)."""
+
+
+def make_certificates(folder: Path, hosts: Sequence[str], users: Sequence[str]) -> Path:
+    """A field network's certificates by the documented recipe: a CA, host certificates
+    valid for 127.0.0.1 and localhost, user certificates; plus ``foreign/``, another CA
+    with its own certificate for each user (what an impostor would hold). Returns
+    ``folder``; each NAME has NAME.crt and NAME.key there."""
+
+    def certs(where: Path, *args: str) -> None:
+        subprocess.run(["sh", str(CERTS), str(where), *args], check=True, capture_output=True)
+
+    certs(folder, "ca")
+    for host in hosts:
+        certs(folder, "host", host, "IP:127.0.0.1", "DNS:localhost")
+    certs(folder / "foreign", "ca")
+    for user in users:
+        certs(folder, "user", user)
+        certs(folder / "foreign", "user", user)
+    return folder
 
 
 def free_port() -> int:
@@ -44,10 +78,13 @@ def simulated_config(
     seed: int = 3,
     frame_rate: float = 10.0,
     survey: dict[str, Any] | None = None,
+    zenoh: dict[str, Any] | None = None,
 ) -> str:
     """A ``cyborgd.toml`` for a simulated rig: the PTU-46 emulator on a pty behind the
-    real serial driver, and the simulated camera on the generated cliff ``seed``."""
+    real serial driver, and the simulated camera on the generated cliff ``seed``; ``zenoh``
+    adds [zenoh] keys (TLS files, ``users``, ``insecure``)."""
     mode = "client" if connect and not listen else "peer"
+    links = {"mode": mode, "listen": list(listen), "connect": list(connect), **(zenoh or {})}
     lines = [
         f"rig = {json.dumps(rig)}",
         f"archive = {json.dumps(str(archive))}",
@@ -55,9 +92,7 @@ def simulated_config(
         "[camera]",
         f'url = "sim://outcrop?seed={seed}&hfov=30"',
         "[zenoh]",
-        f'mode = "{mode}"',
-        f"listen = {json.dumps(list(listen))}",
-        f"connect = {json.dumps(list(connect))}",
+        *(f"{k} = {json.dumps(v)}" for k, v in links.items()),
         "[frames]",
         f"rate = {frame_rate:g}",
         "[survey]",
@@ -90,16 +125,21 @@ class Daemon:
 
 
 async def spawn(
-    args: Sequence[str], log: Path, timeout: float = 60.0, env: dict[str, str] | None = None
+    args: Sequence[str],
+    log: Path,
+    timeout: float = 60.0,
+    env: dict[str, str] | None = None,
+    command: str = "run",
 ) -> Daemon:
-    """``cyborgd run ARGS...``, returned once it printed its ready line; the caller stops it."""
+    """``cyborgd COMMAND ARGS...`` (``run`` or ``router``), returned once it printed its
+    ready line; the caller stops it."""
     log.parent.mkdir(parents=True, exist_ok=True)
     with log.open("ab") as err:
         proc = await asyncio.create_subprocess_exec(
             sys.executable,
             "-m",
             "daemon",
-            "run",
+            command,
             *args,
             stdin=asyncio.subprocess.DEVNULL,
             stdout=asyncio.subprocess.PIPE,
@@ -115,7 +155,7 @@ async def spawn(
     if not daemon.ready.get("ready"):
         await daemon.stop()
         tail = log.read_text(errors="replace").strip().splitlines()[-5:]
-        raise RuntimeError("cyborgd did not start:\n  " + "\n  ".join(tail))
+        raise RuntimeError(f"cyborgd {command} did not start:\n  " + "\n  ".join(tail))
     return daemon
 
 
@@ -135,9 +175,7 @@ async def launch(
 def router() -> Iterator[str]:
     """A zenoh router in this process on a loopback port the kernel picked; yields its
     endpoint (read back from the router's admin space)."""
-    cfg = zenoh.Config()
-    for key, value in Transport("router", listen=("tcp/127.0.0.1:0",)).json5_items():
-        cfg.insert_json5(key, value)
+    cfg = zenoh.Config.from_json5(Transport("router", listen=("tcp/127.0.0.1:0",)).json5())
     cfg.insert_json5("adminspace/enabled", "true")
     session = zenoh.open(cfg)
     try:
@@ -148,9 +186,11 @@ def router() -> Iterator[str]:
 
 
 @contextlib.asynccontextmanager
-async def operator(connect: str, rig: str, name: str, log: Path) -> AsyncIterator[str]:
-    """``cyborg operator`` on a free port; yields its page's URL, then stops it (SIGTERM)
-    and raises if it did not exit cleanly."""
+async def operator(
+    connect: str, rig: str, name: str, log: Path, extra: Sequence[str] = ()
+) -> AsyncIterator[str]:
+    """``cyborg operator`` on a free port (``extra``: more options, e.g. TLS files);
+    yields its page's URL, then stops it (SIGTERM) and raises if it did not exit cleanly."""
     with log.open("wb") as err:
         proc = await asyncio.create_subprocess_exec(
             sys.executable,
@@ -165,6 +205,7 @@ async def operator(connect: str, rig: str, name: str, log: Path) -> AsyncIterato
             connect,
             "--name",
             name,
+            *extra,
             stdout=asyncio.subprocess.PIPE,
             stderr=err,
         )

@@ -10,6 +10,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import itertools
+import typing
 import uuid
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -19,13 +20,13 @@ import zenoh
 
 from protocol.envelope import decode, encode
 from protocol.errors import ProtocolError
-from protocol.keys import Keys
+from protocol.keys import Keys, check_client
 from protocol.messages import (
     Ack,
     FrameHeader,
     InterestResult,
     Message,
-    Status,
+    Request,
     SurveyProgress,
     SurveyStart,
     SurveyStatus,
@@ -34,7 +35,7 @@ from protocol.messages import (
 )
 from protocol.transport import Transport
 
-M = TypeVar("M", bound=Message)
+R = TypeVar("R", bound=Message)
 
 __all__ = [
     "ControlHeldError",
@@ -83,17 +84,15 @@ class RigClient:
     def __init__(self, session: zenoh.Session, rig: str, name: str) -> None:
         self.session = session
         self.keys = Keys(rig)
-        self.name = name
+        self.name = check_client(name)
         self._seq = itertools.count(1)
         self._entities: list = []
 
     @classmethod
     @contextlib.contextmanager
     def open(cls, transport: Transport, rig: str, name: str) -> Iterator[RigClient]:
-        cfg = zenoh.Config()
-        for key, value in transport.json5_items():
-            cfg.insert_json5(key, value)
-        client = cls(zenoh.open(cfg), rig, name)
+        Keys(rig), check_client(name)  # refuse bad names before opening anything
+        client = cls(zenoh.open(zenoh.Config.from_json5(transport.json5())), rig, name)
         try:
             yield client
         finally:
@@ -113,63 +112,68 @@ class RigClient:
             msg.KIND, msg.to_body(), seq=next(self._seq), src=self.name, corr=uuid.uuid4().hex
         )
 
-    async def call_raw(self, command: str, payload: bytes, timeout: float = 10.0) -> Message:
-        """Send a prepared payload (tests use this to send hostile input)."""
-        key = self.keys.cmd(command)
+    async def call_raw(
+        self, verb: str, payload: bytes, timeout: float = 10.0, *, client: str | None = None
+    ) -> Message:
+        """Send a prepared payload as ``client`` (default: this client); tests use this to
+        send hostile input."""
+        key = self.keys.cmd(self.name if client is None else client, verb)
 
         def ask() -> list[zenoh.Reply]:
             return list(self.session.get(key, payload=payload, timeout=timeout))
 
         replies = await asyncio.to_thread(ask)
         if not replies:
-            raise RigUnavailableError(f"no rig {self.keys.rig!r} answers {command}; is cyborgd up?")
+            raise RigUnavailableError(
+                f"no rig {self.keys.rig!r} answers {verb}; is cyborgd up, and may "
+                f"{self.name} send it?"
+            )
         reply = replies[0]
         if reply.ok is None:
-            raise RigError(f"{command}: {reply.err.payload.to_string()}")
+            raise RigError(f"{verb}: {reply.err.payload.to_string()}")
         try:
             env = decode(reply.ok.payload.to_bytes())
             msg = message_from(env.kind, env.body)
         except ProtocolError as exc:
-            raise RigError(f"{command}: unreadable reply: {exc}") from None
+            raise RigError(f"{verb}: unreadable reply: {exc}") from None
         if msg is None:
-            raise RigError(f"{command}: reply of unknown kind {env.kind!r}")
+            raise RigError(f"{verb}: reply of unknown kind {env.kind!r}")
         return msg
 
-    async def call(self, command: str, msg: Message, timeout: float = 10.0) -> Message:
-        return await self.call_raw(command, self.request(msg), timeout)
+    async def call(self, msg: Request, timeout: float = 10.0) -> Message:
+        """Send a command; its reply whatever it is (a refusing Ack included)."""
+        return await self.call_raw(msg.VERB, self.request(msg), timeout)
 
-    async def command(self, command: str, msg: Message, timeout: float = 10.0) -> Ack:
-        """A command whose answer is an Ack; a non-OK Ack raises RigError with its detail."""
-        return await self.typed(command, msg, Ack, timeout)
-
-    async def typed(self, command: str, msg: Message, kind: type[M], timeout: float = 10.0) -> M:
-        """A command answered with a ``kind`` message; a non-OK ack raises RigRefusedError."""
-        reply = await self.call(command, msg, timeout)
+    async def command(self, msg: Request[R], timeout: float = 10.0) -> R:
+        """Send a command and return its reply, of the kind the request declares; a non-OK
+        Ack raises RigRefusedError with its detail."""
+        reply = await self.call(msg, timeout)
         if isinstance(reply, Ack) and not reply.ok:
-            raise RigRefusedError(command, reply)
-        if not isinstance(reply, kind):
-            raise RigError(f"{command}: expected {kind.KIND}, got {reply.KIND}")
-        return reply
+            raise RigRefusedError(msg.VERB, reply)
+        if not isinstance(reply, msg.REPLY):
+            raise RigError(f"{msg.VERB}: expected {msg.REPLY.KIND}, got {reply.KIND}")
+        return typing.cast(R, reply)
 
     async def ensure_control(self, take_over: bool = False) -> bool:
         """Hold control before a motion command: take it when nobody holds it, or from
         another client only with ``take_over`` (never silently). True if it was taken."""
-        status = await self.typed("survey/status", SurveyStatus(), Status)
+        status = await self.command(SurveyStatus())
         if status.controller == self.name:
             return False
         if status.controller and not take_over:
             raise ControlHeldError(status.controller)
-        await self.command("control/take", TakeControl(self.name))
+        await self.command(TakeControl())
         return True
 
     # -- telemetry ---------------------------------------------------------------------
 
-    def subscribe(self, key: str, maxsize: int = 0) -> asyncio.Queue[Message]:
-        """Decoded messages on ``key``; with ``maxsize`` the oldest are dropped (latest wins)."""
+    def subscribe(self, key: str, kind: type[R], maxsize: int = 0) -> asyncio.Queue[R]:
+        """Messages of ``kind`` on ``key`` (anything else there is dropped); with
+        ``maxsize`` the oldest are dropped (latest wins)."""
         loop = asyncio.get_running_loop()
-        queue: asyncio.Queue[Message] = asyncio.Queue()
+        queue: asyncio.Queue[R] = asyncio.Queue()
 
-        def push(msg: Message) -> None:
+        def push(msg: R) -> None:
             while maxsize and queue.qsize() >= maxsize:
                 queue.get_nowait()
             queue.put_nowait(msg)
@@ -180,7 +184,7 @@ class RigClient:
                 msg = message_from(env.kind, env.body)
             except ProtocolError:
                 return
-            if msg is not None:
+            if isinstance(msg, kind):
                 with contextlib.suppress(RuntimeError):
                     loop.call_soon_threadsafe(push, msg)
 
@@ -256,8 +260,8 @@ class RigClient:
 
 async def run_station(
     client: RigClient,
-    progress: asyncio.Queue,
-    results: asyncio.Queue,
+    progress: asyncio.Queue[SurveyProgress],
+    results: asyncio.Queue[InterestResult],
     request: SurveyStart,
     *,
     timeout: float = 300.0,
@@ -268,10 +272,10 @@ async def run_station(
     ``progress`` and ``results`` are subscriptions made before the start, so nothing
     published in between is missed.
     """
-    station = (await client.command("survey/start", request)).detail
+    station = (await client.command(request)).detail
     async with asyncio.timeout(timeout):
         while True:
-            p: SurveyProgress = await progress.get()
+            p = await progress.get()
             if p.station != station:
                 continue
             if on_progress is not None:
@@ -281,6 +285,6 @@ async def run_station(
             if p.stage == "done":
                 break
         while True:
-            result: InterestResult = await results.get()
+            result = await results.get()
             if result.station == station:
                 return result

@@ -146,11 +146,11 @@ class RigWatch:
         """Follow the rig until cancelled; survives the daemon leaving and coming back."""
         c = self.client
         feeds = [
-            c.subscribe(c.keys.ptu_state, maxsize=1),
-            c.subscribe(c.keys.progress),
-            c.subscribe(c.keys.result),
-            c.subscribe(c.keys.chip, maxsize=3),
-            c.subscribe(c.keys.events),
+            c.subscribe(c.keys.ptu_state, PtuState, maxsize=1),
+            c.subscribe(c.keys.progress, SurveyProgress),
+            c.subscribe(c.keys.result, InterestResult),
+            c.subscribe(c.keys.chip, Chip, maxsize=3),
+            c.subscribe(c.keys.events, Event),
         ]
         alive = c.alive()
         async with asyncio.TaskGroup() as tg:
@@ -183,7 +183,7 @@ class RigWatch:
             if self.view.alive is False:
                 continue
             try:
-                reply = await self.client.call("survey/status", SurveyStatus(), timeout=2.0)
+                reply = await self.client.call(SurveyStatus(), timeout=2.0)
             except RigError:
                 continue
             if isinstance(reply, Status):

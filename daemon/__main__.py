@@ -12,18 +12,20 @@ from pathlib import Path
 import cv2
 import zenoh
 
-from protocol.transport import MODES, Transport
+from protocol.transport import MODES
 
 from .analyze import AnalyzeOptions, analyze_files
 from .app import run
 from .camera import CameraError
-from .config import load
+from .config import load, validate
 from .demo import run_demo
 from .ptu import PtuError
 from .ptu.emulator import Ptu46Emulator
 from .ptu.models import MODELS
 from .ptu.ptyserver import BANNER, PtyEmulatorServer, parse_fault, serve
+from .router import run_router
 from .vision.params import PROFILES, profile
+from .zenohlog import route_zenoh_logs
 
 
 def _run_parser(sub: argparse._SubParsersAction) -> None:
@@ -36,6 +38,11 @@ def _run_parser(sub: argparse._SubParsersAction) -> None:
     ap.add_argument("--mode", choices=MODES, help="zenoh mode")
     ap.add_argument("--listen", action="append", metavar="ENDPOINT", help="e.g. tcp/0.0.0.0:7447")
     ap.add_argument("--connect", action="append", metavar="ENDPOINT", help="a router or peer")
+    ap.add_argument(
+        "--insecure",
+        action="store_true",
+        help="allow clear-text endpoints beyond loopback (a lab bench, never the field)",
+    )
 
 
 def _run_daemon(args: argparse.Namespace) -> int:
@@ -44,20 +51,23 @@ def _run_daemon(args: argparse.Namespace) -> int:
         if args.camera:
             cfg = replace(cfg, camera=replace(cfg.camera, url=args.camera))
         z = cfg.zenoh
-        cfg = replace(
-            cfg,
-            zenoh=Transport(
-                args.mode or z.mode,
-                tuple(args.listen) if args.listen is not None else z.listen,
-                tuple(args.connect) if args.connect is not None else z.connect,
-                z.shared_memory,
-            ),
+        cfg = validate(
+            replace(
+                cfg,
+                zenoh=replace(
+                    z,
+                    mode=args.mode or z.mode,
+                    listen=tuple(args.listen) if args.listen is not None else z.listen,
+                    connect=tuple(args.connect) if args.connect is not None else z.connect,
+                    insecure=args.insecure or z.insecure,
+                ),
+            )
         )
     except ValueError as exc:
         print(f"cyborgd: {exc}", file=sys.stderr)
         return 2
     try:
-        return asyncio.run(run(cfg))
+        return asyncio.run(run(cfg, ready_stream=route_zenoh_logs()))
     except (PtuError, CameraError, OSError, zenoh.ZError) as exc:
         print(f"cyborgd: {exc}", file=sys.stderr)
         return 1
@@ -119,6 +129,13 @@ def _emulator_parser(sub: argparse._SubParsersAction) -> None:
     )
 
 
+def _router_parser(sub: argparse._SubParsersAction) -> None:
+    ap = sub.add_parser(
+        "router", help="run the field network's zenoh router (TLS, access list from users)"
+    )
+    ap.add_argument("--config", type=Path, required=True, help="router.toml (see README)")
+
+
 def _run_emulator(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     try:
         faults = [parse_fault(spec) for spec in args.fault]
@@ -148,18 +165,21 @@ def main(argv: list[str] | None = None) -> int:
     _analyze_parser(sub)
     _demo_parser(sub)
     _emulator_parser(sub)
+    _router_parser(sub)
     args = parser.parse_args(argv)
     logging.basicConfig(
         level=logging.DEBUG
         if args.verbose
         else logging.INFO
-        if args.command == "run"
+        if args.command in ("run", "router")
         else logging.WARNING,
         format="%(levelname)s %(name)s: %(message)s",
     )
     # OpenCV and libpng print their own warnings for bad files; ours are one line each.
     quiet = cv2.utils.logging.LOG_LEVEL_SILENT
     cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_INFO if args.verbose else quiet)
+    if args.command == "router":
+        return run_router(args.config)
     if args.command == "analyze":
         if args.downsample is not None and args.downsample <= 0:
             parser.error("--downsample must be > 0")

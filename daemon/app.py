@@ -19,6 +19,7 @@ import os
 import signal
 import sys
 import time
+from typing import TextIO
 
 import cv2
 
@@ -112,8 +113,9 @@ class _Service:
             await asyncio.sleep(interval)
 
 
-async def run(cfg: Config, ready_stream=sys.stdout) -> int:
-    """Serve until SIGTERM/SIGINT; returns the exit status."""
+async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
+    """Serve until SIGTERM/SIGINT; returns the exit status. The ready line (JSON) goes to
+    ``ready_stream`` (default: stdout)."""
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()
     for sig in (signal.SIGTERM, signal.SIGINT):
@@ -122,6 +124,14 @@ async def run(cfg: Config, ready_stream=sys.stdout) -> int:
     cv2.setNumThreads(1)  # the worker does the heavy lifting; leave the cores to it and zenoh
     archive = Archive(cfg.archive, cfg.rig)
     recovered = archive.open()
+    if cfg.zenoh.exposed():
+        _LOGGER.warning(
+            "insecure = true: the bus is in clear text on %s, and anyone who reaches it can "
+            "drive the PTU",
+            ", ".join(cfg.zenoh.exposed()),
+        )
+    if cfg.zenoh.access is None and cfg.zenoh.reachable():
+        _LOGGER.warning("no access list ([zenoh] users): every peer that connects may command")
     async with contextlib.AsyncExitStack() as stack:
         bus = stack.enter_context(Bus.open(cfg.zenoh, cfg.keys))
         worker = VisionWorker()
@@ -171,18 +181,21 @@ async def run(cfg: Config, ready_stream=sys.stdout) -> int:
             "archive": str(archive.root.resolve()),
             "recovered": recovered,
         }
-        print(json.dumps(ready), file=ready_stream, flush=True)
+        print(json.dumps(ready), file=ready_stream or sys.stdout, flush=True)
         for name in recovered:
             service.event("warning", f"station {name} was interrupted; marked incomplete")
         async with asyncio.TaskGroup() as tg:
             tasks = [
-                tg.create_task(bus.serve(queries, commands.handle), name="commands"),
-                tg.create_task(service.state_loop(), name="ptu-state"),
-                tg.create_task(service.frame_loop(), name="frames"),
+                tg.create_task(bus.serve(queries, commands.handle), name="cyborgd.bus.commands"),
+                tg.create_task(service.state_loop(), name="cyborgd.ptu.state"),
+                tg.create_task(service.frame_loop(), name="cyborgd.camera.frames"),
             ]
             if notifier.watchdog_interval:
                 tasks.append(
-                    tg.create_task(service.watchdog_loop(notifier, notifier.watchdog_interval))
+                    tg.create_task(
+                        service.watchdog_loop(notifier, notifier.watchdog_interval),
+                        name="cyborgd.systemd.watchdog",
+                    )
                 )
             await stop.wait()
             _LOGGER.info("stopping")

@@ -13,28 +13,37 @@ import asyncio
 import contextlib
 import itertools
 import logging
+import os
 from collections.abc import Awaitable, Callable, Iterator
 
 import zenoh
 
 from protocol.envelope import encode
+from protocol.errors import VersionError
 from protocol.keys import Keys
-from protocol.messages import Message
+from protocol.messages import Message, clip
 from protocol.transport import Transport
 
 __all__ = ["Bus", "CommandHandler", "open_session"]
 
 _LOGGER = logging.getLogger(__name__)
 
-CommandHandler = Callable[[str, bytes], Awaitable[bytes]]
-"""(command name, request payload) -> reply payload (an encoded envelope)."""
+CommandHandler = Callable[[str, str, bytes], Awaitable[bytes]]
+"""(caller, verb, request payload) -> reply payload (an encoded envelope). The caller is the
+``<client>`` segment of the key. A VersionError raised is sent as a plain-text error
+reply, which a peer of any protocol version can read."""
+
+
+SOCKET_MODE = 0o660
+"""The rig's unix sockets: its own user and group (the scientist's account joins group
+``cyborg``). zenoh creates them by the umask, and connecting needs write permission."""
 
 
 def open_session(transport: Transport) -> zenoh.Session:
-    cfg = zenoh.Config()
-    for key, value in transport.json5_items():
-        cfg.insert_json5(key, value)
-    return zenoh.open(cfg)
+    session = zenoh.open(zenoh.Config.from_json5(transport.json5()))
+    for path in transport.unix_sockets():
+        os.chmod(path, SOCKET_MODE)
+    return session
 
 
 class Bus:
@@ -135,7 +144,7 @@ class Bus:
         try:
             while True:
                 query = await queries.get()
-                task = asyncio.create_task(self._answer(query, handler))
+                task = asyncio.create_task(self._answer(query, handler), name="cyborgd.bus.answer")
                 tasks.add(task)
                 task.add_done_callback(tasks.discard)
         finally:
@@ -144,12 +153,15 @@ class Bus:
 
     async def _answer(self, query: zenoh.Query, handler: CommandHandler) -> None:
         with query:
-            name = self.keys.command_of(str(query.key_expr)) or str(query.key_expr)
+            client, verb = self.keys.command_of(str(query.key_expr)) or ("", "")
             payload = query.payload.to_bytes() if query.payload is not None else b""
             try:
-                reply = await handler(name, payload)
+                reply = await handler(client, verb, payload)
+            except VersionError as exc:
+                query.reply_err(clip(str(exc)).encode())
+                return
             except Exception:  # the handler turns known failures into Acks; this is a bug
-                _LOGGER.exception("command %s failed", name)
+                _LOGGER.exception("command %s from %s failed", clip(verb, 80), clip(client, 80))
                 query.reply_err(b"internal error; see the daemon log")
                 return
             query.reply(query.key_expr, reply)

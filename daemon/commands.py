@@ -14,8 +14,10 @@ from collections.abc import Awaitable, Callable
 from typing import Any
 
 from protocol.envelope import decode
-from protocol.errors import ProtocolError
+from protocol.errors import ProtocolError, VersionError
+from protocol.keys import check_client
 from protocol.messages import (
+    REQUESTS,
     Ack,
     ArchiveData,
     ArchiveGet,
@@ -35,6 +37,7 @@ from protocol.messages import (
     SurveyStart,
     SurveyStatus,
     TakeControl,
+    clip,
 )
 from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
@@ -45,41 +48,14 @@ from .rig import Rig
 from .survey import Survey, SurveyBusyError
 from .worker import VisionWorker
 
-__all__ = ["REQUESTS", "Commands"]
+__all__ = ["MOTION", "Commands"]
 
 _LOGGER = logging.getLogger(__name__)
 
-REQUESTS: dict[str, type[Message]] = {
-    "ptu/goto": PtuGoto,
-    "ptu/jog": PtuJog,
-    "ptu/look": PtuLook,
-    "ptu/halt": PtuHalt,
-    "ptu/home": PtuHome,
-    "survey/start": SurveyStart,
-    "survey/cancel": SurveyCancel,
-    "survey/status": SurveyStatus,
-    "target/choose": ChooseTarget,
-    "control/take": TakeControl,
-    "control/release": ReleaseControl,
-    "archive/list": ArchiveList,
-    "archive/get": ArchiveGet,
-    "hello": Hello,
-}
-"""The request kind each command expects."""
-
 _BUILD = importlib.metadata.version("cyborg-astrobiologist")
 
-MOTION = frozenset(
-    {
-        "ptu/goto",
-        "ptu/jog",
-        "ptu/look",
-        "ptu/home",
-        "survey/start",
-        "survey/cancel",
-        "target/choose",
-    }
-)
+MOTION = frozenset(verb for verb, request in REQUESTS.items() if request.MOVES)
+"""Commands that need control (``Request.MOVES``)."""
 
 
 class Commands:
@@ -117,29 +93,43 @@ class Commands:
             "hello": self._hello,
         }
 
-    async def handle(self, name: str, payload: bytes) -> bytes:
+    async def handle(self, client: str, verb: str, payload: bytes) -> bytes:
+        """Answer one command from ``client`` (its key's segment, the caller's identity).
+
+        A request of another protocol major raises VersionError (sent as a plain-text
+        error reply, readable by any version); everything else gets an Ack or a reply."""
         corr = None
         try:
             env = decode(payload)
             corr = env.corr
-            expected = REQUESTS.get(name)
+            check_client(client)
+            expected = REQUESTS.get(verb)
             if expected is None:
-                raise ProtocolError(f"unknown command {name!r}")
+                raise ProtocolError(f"unknown command {clip(verb, 64)!r}")
             if env.kind != expected.KIND:
-                raise ProtocolError(f"cmd/{name} takes {expected.KIND!r}, not {env.kind!r}")
+                raise ProtocolError(f"{verb} takes {expected.KIND!r}, not {clip(env.kind, 64)!r}")
             msg = expected.from_body(env.body)
+        except VersionError:
+            _LOGGER.info("refused a %s request of another protocol version", clip(verb, 64))
+            raise
         except ProtocolError as exc:
-            _LOGGER.info("refused a malformed %s request: %s", name, exc)
-            return self._encode(Ack("ERROR", f"{name}: {exc}"), corr)
-        if name in MOTION and not self.rig.control.allows(env.src):
-            holder = self.rig.control.holder or "nobody"
+            _LOGGER.info("refused a malformed %s request: %s", clip(verb, 64), clip(str(exc), 200))
+            return self._encode(Ack("ERROR", f"{clip(verb, 64)}: {exc}"), corr)
+        if env.src != client:
             reply: Message = Ack(
                 "REJECTED",
-                f"{name}: client {env.src or '(anonymous)'} does not hold control "
-                f"(held by {holder}); send control/take first",
+                f"{verb}: the envelope says it is from {clip(env.src, 64)!r}, the key says "
+                f"{client!r}; a client speaks only for itself",
+            )
+        elif verb in MOTION and not self.rig.control.allows(client):
+            holder = self.rig.control.holder or "nobody"
+            reply = Ack(
+                "REJECTED",
+                f"{verb}: client {client} does not hold control (held by {holder}); "
+                "send control/take first",
             )
         else:
-            reply = await self._run(name, msg, env.src)
+            reply = await self._run(verb, msg, client)
         return self._encode(reply, corr)
 
     async def _run(self, name: str, msg: Message, src: str) -> Message:
@@ -231,17 +221,21 @@ class Commands:
     # -- control -----------------------------------------------------------------------
 
     async def _take(self, msg: TakeControl, src: str) -> Message:
-        client = msg.client or src
-        if not client:
-            raise ValueError("name the client taking control")
-        previous = self.rig.control.take(client)
+        if msg.client not in ("", src):
+            raise ValueError(f"{src} cannot take control for {msg.client}")
+        previous = self.rig.control.take(src)
         if previous:
-            self._announce("warning", f"{client} took control from {previous}")
-        return Ack("OK", f"{client} holds control" + (f" (was {previous})" if previous else ""))
+            self._announce("warning", f"{src} took control from {previous}")
+        elif self.rig.control.holder == src:
+            self._announce("info", f"{src} took control")
+        return Ack("OK", f"{src} holds control" + (f" (was {previous})" if previous else ""))
 
     async def _release(self, msg: ReleaseControl, src: str) -> Message:
-        if not self.rig.control.release(msg.client or src):
-            return Ack("REJECTED", f"{msg.client or src} does not hold control")
+        if msg.client not in ("", src):
+            raise ValueError(f"{src} cannot release control for {msg.client}")
+        if not self.rig.control.release(src):
+            return Ack("REJECTED", f"{src} does not hold control")
+        self._announce("info", f"{src} released control")
         return Ack("OK", "control released")
 
     # -- archive and hello -------------------------------------------------------------

@@ -11,12 +11,21 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
+from protocol.access import access_control, load_users
 from protocol.keys import Keys
 from protocol.transport import Transport
 
 from .vision.params import PROFILES
 
-__all__ = ["CameraConfig", "Config", "ConfigError", "FramesConfig", "SurveyConfig", "load"]
+__all__ = [
+    "CameraConfig",
+    "Config",
+    "ConfigError",
+    "FramesConfig",
+    "SurveyConfig",
+    "load",
+    "validate",
+]
 
 
 class ConfigError(ValueError):
@@ -108,7 +117,8 @@ def _coerce(name: str, value: Any, default: Any) -> Any:
     return value
 
 
-def _validate(cfg: Config) -> Config:
+def validate(cfg: Config) -> Config:
+    """Check a whole configuration (after any CLI overrides); ConfigError says what."""
     try:
         cfg.keys  # noqa: B018 - validates the rig name
     except ValueError as exc:
@@ -132,6 +142,13 @@ def _validate(cfg: Config) -> Config:
     for ok, text in checks:
         if not ok:
             raise ConfigError(text)
+    exposed = cfg.zenoh.exposed()
+    if exposed and not cfg.zenoh.insecure:
+        raise ConfigError(
+            f"zenoh.listen: {', '.join(exposed)} would carry the bus in clear text beyond this "
+            "machine, where anyone could drive the PTU; listen on tls/ (README: Security), "
+            "on loopback or a unix socket, or set insecure = true in [zenoh]"
+        )
     return cfg
 
 
@@ -159,20 +176,28 @@ def load(path: Path | None = None, **overrides: Any) -> Config:
         if name in sections:
             values[name] = _typed(name, sections[name], value)
         elif name == "zenoh":
-            values[name] = _transport(value)
+            rig = overrides.get("rig") or data.get("rig", Config.rig)
+            base = Path(path).parent if path is not None else Path()
+            values[name] = _transport(value, rig if isinstance(rig, str) else Config.rig, base)
         elif name == "archive":
             values[name] = Path(_coerce(name, value, ""))
         else:
             values[name] = _coerce(name, value, getattr(Config(), name))
     cfg = Config(**values)
     cfg = replace(cfg, **{k: v for k, v in overrides.items() if v is not None})
-    return _validate(cfg)
+    return validate(cfg)
 
 
-def _transport(table: Any) -> Transport:
+_FILES = ("tls_ca", "tls_cert", "tls_key", "users", "passwords")
+"""[zenoh] keys naming files; relative paths are relative to the config file's folder."""
+
+
+def _transport(table: Any, rig: str, base: Path) -> Transport:
+    """[zenoh]: Transport's fields, plus ``users``, a users file (protocol.access) from
+    which the access-control list is generated."""
     if not isinstance(table, dict):
         raise ConfigError("[zenoh] must be a table")
-    known = {f.name for f in fields(Transport)}
+    known = ({f.name for f in fields(Transport)} - {"access"}) | {"users"}
     unknown = sorted(set(table) - known)
     if unknown:
         raise ConfigError(f"unknown key(s) in [zenoh]: {', '.join(unknown)}")
@@ -183,7 +208,18 @@ def _transport(table: Any) -> Transport:
             if not isinstance(eps, list) or not all(isinstance(e, str) for e in eps):
                 raise ConfigError(f"zenoh.{name}: expected a list of endpoints")
             values[name] = tuple(eps)
+    for name in _FILES:
+        if name in values:
+            if not isinstance(values[name], str):
+                raise ConfigError(f"zenoh.{name}: expected a file name")
+            values[name] = str(base / values[name]) if values[name] else ""
+    users = values.pop("users", "")
     try:
+        if users:
+            text = Path(users).read_text()
+            values["access"] = access_control(Keys(rig), load_users(text, rig))
         return Transport(**values)
+    except OSError as exc:
+        raise ConfigError(f"zenoh.users: {users}: {exc.strerror or exc}") from None
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"[zenoh]: {exc}") from None

@@ -151,7 +151,9 @@ class Survey:
             timing={},
         )
         self.state, self.last_error, self._result = "surveying", "", None
-        self._task = asyncio.create_task(self._run(geometry, req.profile), name="survey")
+        self._task = asyncio.create_task(
+            self._run(geometry, req.profile), name="cyborgd.survey.run"
+        )
         return self.station_id
 
     @property
@@ -420,7 +422,8 @@ class Survey:
             saving = asyncio.create_task(
                 asyncio.to_thread(
                     self._save_chip, station, point, (position.pan, position.tilt), frame
-                )
+                ),
+                name="cyborgd.survey.save-chip",
             )
         if saving is not None:
             self.tel.chip(await saving)

@@ -10,9 +10,12 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import ctypes
 import logging
 import multiprocessing as mp
+import os
 import signal
+import sys
 import traceback
 from collections.abc import Callable
 from multiprocessing.connection import Connection, wait
@@ -31,13 +34,29 @@ class WorkerCrashedError(WorkerError):
     """The worker process died during the job (killed, out of memory, native crash)."""
 
 
-def _serve(conn: Connection) -> None:
-    """Worker main loop: run ``(fn, args)`` jobs until the pipe closes.
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with(parent: int) -> None:
+    """Have the kernel kill this process when the daemon dies, however it dies (a SIGKILL,
+    an OOM kill): an orphan would go on computing for nobody and could race a restarted
+    daemon's clean-up of ``.analysis.partial``. Linux only; elsewhere the worker exits at
+    its next read of the closed pipe."""
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent:  # the daemon died before the request took effect
+        os._exit(0)
+
+
+def _serve(conn: Connection, parent: int) -> None:
+    """Worker main loop: run ``(fn, args)`` jobs until the pipe closes or the daemon dies.
 
     The daemon owns the worker's lifetime: a Ctrl-C or a SIGTERM sent to the whole process
     group (a terminal, ``timeout``, systemd's control-group kill) must not kill it
-    mid-job; it exits when the daemon closes the pipe.
+    mid-job; it exits when the daemon closes the pipe, and with the daemon.
     """
+    _die_with(parent)
     import cv2  # noqa: PLC0415 - only the worker needs OpenCV's threads
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -52,7 +71,10 @@ def _serve(conn: Connection) -> None:
             reply = ("ok", fn(*args))
         except Exception as exc:  # reported to the daemon, which decides
             reply = ("error", f"{type(exc).__name__}: {exc}", traceback.format_exc())
-        conn.send(reply)
+        try:
+            conn.send(reply)
+        except OSError:  # the daemon is gone (BrokenPipe): nobody to tell
+            return
 
 
 class VisionWorker:
@@ -73,7 +95,9 @@ class VisionWorker:
 
     def start(self) -> None:
         parent, child = self._ctx.Pipe()
-        proc = self._ctx.Process(target=_serve, args=(child,), name="cyborgd-vision", daemon=True)
+        proc = self._ctx.Process(
+            target=_serve, args=(child, os.getpid()), name="cyborgd-vision", daemon=True
+        )
         proc.start()
         child.close()
         self._proc, self._conn = proc, parent

@@ -101,7 +101,8 @@ def decode(data: bytes | bytearray | memoryview, *, max_size: int = MAX_MESSAGE)
         raise DecodeError("envelope has no protocol major 'v'")
     if not compatible(major):
         raise VersionError(
-            f"protocol major {major} is not supported (this side speaks {PROTOCOL_MAJOR})"
+            f"protocol {PROTOCOL_MAJOR} required: this side speaks {PROTOCOL_MAJOR}."
+            f"{PROTOCOL_MINOR}, the message is {major}.x; update the other side"
         )
     kind, body = env.get("k"), env.get("body", {})
     if not isinstance(kind, str) or not kind:

@@ -1,7 +1,9 @@
 """Every zenoh key expression of the rig, built here and only here.
 
-All keys live under ``cyborg/<rig>/``. Telemetry is published; commands are queryables
-under ``cmd/`` that answer an ``Ack``.
+All keys live under ``cyborg/<rig>/``. Telemetry is published by the rig alone; commands
+are queries on ``cmd/<client>/<verb>`` that the rig answers. The ``<client>`` segment is
+the caller's identity: an access-control list lets each principal query only its own
+segment, and the rig binds control to that name (protocol 2).
 """
 
 from __future__ import annotations
@@ -9,26 +11,35 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-__all__ = ["COMMANDS", "Keys"]
+from .errors import InvalidFieldError
+from .messages import REQUESTS
 
-_NAME = re.compile(r"[A-Za-z0-9_-]{1,64}\Z")
+__all__ = ["COMMANDS", "Keys", "check_client"]
 
-COMMANDS = (
-    "ptu/goto",
-    "ptu/jog",
-    "ptu/look",
-    "ptu/halt",
-    "ptu/home",
-    "survey/start",
-    "survey/cancel",
-    "survey/status",
-    "target/choose",
-    "control/take",
-    "control/release",
-    "archive/list",
-    "archive/get",
-    "hello",
-)
+_RIG = re.compile(r"[A-Za-z0-9_-]{1,64}\Z")
+_CLIENT = re.compile(r"[A-Za-z0-9._-]{1,64}\Z")
+
+COMMANDS = tuple(REQUESTS)
+"""Every command verb, from the request classes (``protocol.messages.REQUESTS``)."""
+
+
+def check_client(name: str) -> str:
+    """``name`` if it is a valid client name (1-64 of letters, digits, '.', '_', '-'):
+    printable, one key segment, no wildcard, nothing a log or a page could misread.
+
+    >>> check_client("alice.field-1")
+    'alice.field-1'
+    >>> check_client("al ice")
+    Traceback (most recent call last):
+    ...
+    protocol.errors.InvalidFieldError: client name 'al ice': use 1-64 letters, digits, ...
+    """
+    if not isinstance(name, str) or not _CLIENT.match(name) or name in (".", ".."):
+        shown = repr(name[:40] + "…" if isinstance(name, str) and len(name) > 40 else name)
+        raise InvalidFieldError(
+            f"client name {shown}: use 1-64 letters, digits, '.', '_' or '-' (nothing else)"
+        )
+    return name
 
 
 @dataclass(frozen=True)
@@ -36,14 +47,16 @@ class Keys:
     """The key space of one rig.
 
     >>> k = Keys("rig1")
-    >>> k.frame, k.cmd("ptu/goto"), k.alive
-    ('cyborg/rig1/cam/frame', 'cyborg/rig1/cmd/ptu/goto', 'cyborg/rig1/alive')
+    >>> k.frame, k.cmd("alice", "ptu/goto"), k.alive
+    ('cyborg/rig1/cam/frame', 'cyborg/rig1/cmd/alice/ptu/goto', 'cyborg/rig1/alive')
+    >>> k.command_of("cyborg/rig1/cmd/alice/ptu/goto")
+    ('alice', 'ptu/goto')
     """
 
     rig: str
 
     def __post_init__(self) -> None:
-        if not _NAME.match(self.rig):
+        if not _RIG.match(self.rig):
             raise ValueError(f"rig name {self.rig!r}: use 1-64 letters, digits, '_' or '-'")
 
     @property
@@ -78,17 +91,29 @@ class Keys:
     def alive(self) -> str:
         return f"{self.root}/alive"
 
-    def cmd(self, name: str) -> str:
-        if name not in COMMANDS:
-            raise ValueError(f"unknown command {name!r}")
-        return f"{self.root}/cmd/{name}"
+    @property
+    def telemetry(self) -> tuple[str, ...]:
+        """Every key the rig publishes on (only the rig may)."""
+        return (self.frame, self.ptu_state, self.progress, self.result, self.chip, self.events)
+
+    def cmd(self, client: str, verb: str) -> str:
+        if verb not in COMMANDS:
+            raise ValueError(f"unknown command {verb!r}")
+        return f"{self.root}/cmd/{check_client(client)}/{verb}"
+
+    def commands_of(self, client: str) -> str:
+        """Every command key of one client (what an access-control list grants it)."""
+        return f"{self.root}/cmd/{check_client(client)}/**"
 
     @property
     def all_commands(self) -> str:
         return f"{self.root}/cmd/**"
 
-    def command_of(self, key: str) -> str | None:
-        """The command name a received key expression addresses, if it is one of ours."""
+    def command_of(self, key: str) -> tuple[str, str] | None:
+        """(client, verb) of a received command key; the client segment is not yet
+        checked (the rig refuses a bad one with a reason), the verb may be unknown."""
         prefix = f"{self.root}/cmd/"
-        name = key[len(prefix) :] if key.startswith(prefix) else None
-        return name if name in COMMANDS else None
+        if not key.startswith(prefix):
+            return None
+        client, _, verb = key[len(prefix) :].partition("/")
+        return client, verb

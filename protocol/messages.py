@@ -12,12 +12,14 @@ import math
 import types
 import typing
 from dataclasses import MISSING, asdict, dataclass, fields
-from typing import Any, ClassVar, Self
+from typing import Any, ClassVar, Generic, Self, TypeVar
 
 from .errors import DecodeError, InvalidFieldError
 
 __all__ = [
+    "MAX_TEXT",
     "MESSAGES",
+    "REQUESTS",
     "RESULTS",
     "Ack",
     "ArchiveData",
@@ -39,17 +41,30 @@ __all__ = [
     "PtuLook",
     "PtuState",
     "ReleaseControl",
+    "Request",
     "Status",
     "SurveyCancel",
     "SurveyProgress",
     "SurveyStart",
     "SurveyStatus",
     "TakeControl",
+    "clip",
     "message_from",
 ]
 
 RESULTS = ("OK", "REJECTED", "LIMIT", "TIMEOUT", "BUSY", "ERROR")
-_MAX_TEXT = 4096
+MAX_TEXT = 4096
+"""Longest text field either side accepts; what a rig sends is clipped to it (:func:`clip`)."""
+
+
+def clip(text: str, limit: int = MAX_TEXT) -> str:
+    """``text`` cut to ``limit`` characters (an ellipsis says so), so a peer can always
+    decode what it is sent, however long the input it echoes.
+
+    >>> clip("abcdef", 4), clip("abc", 4)
+    ('abc…', 'abc')
+    """
+    return text if len(text) <= limit else text[: limit - 1] + "…"
 
 
 def _check(name: str, value: Any, tp: Any) -> Any:
@@ -86,8 +101,8 @@ def _check(name: str, value: Any, tp: Any) -> Any:
             raise InvalidFieldError(f"{name}: must be finite")
         return float(value)
     if tp is str:
-        if not isinstance(value, str) or len(value) > _MAX_TEXT:
-            raise InvalidFieldError(f"{name}: expected text of at most {_MAX_TEXT} characters")
+        if not isinstance(value, str) or len(value) > MAX_TEXT:
+            raise InvalidFieldError(f"{name}: expected text of at most {MAX_TEXT} characters")
         return value
     if tp is bytes:
         if not isinstance(value, bytes):
@@ -127,141 +142,6 @@ def _in(name: str, value: float, lo: float, hi: float) -> None:
         raise ValueError(f"{name} {value} outside {lo}..{hi}")
 
 
-# -- commands ----------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class PtuGoto(Message):
-    """Point at absolute (pan, tilt) degrees; the unit's own limits are checked later."""
-
-    KIND: ClassVar[str] = "ptu.goto"
-    pan: float
-    tilt: float
-
-    def __post_init__(self) -> None:
-        _in("pan", self.pan, -360.0, 360.0)
-        _in("tilt", self.tilt, -180.0, 180.0)
-
-
-@dataclass(frozen=True)
-class PtuJog(Message):
-    """Step by (pan, tilt) degrees from where the head is."""
-
-    KIND: ClassVar[str] = "ptu.jog"
-    pan: float = 0.0
-    tilt: float = 0.0
-
-    def __post_init__(self) -> None:
-        _in("pan", self.pan, -90.0, 90.0)
-        _in("tilt", self.tilt, -90.0, 90.0)
-
-
-@dataclass(frozen=True)
-class PtuLook(Message):
-    """Point at what a clicked pixel shows; the rig does the geometry, so clients need no
-    camera model.
-
-    ``u``, ``v`` are fractions of the image's width and height (0..1, from the top left),
-    so any display size works. With ``station`` empty the image is a live frame taken at
-    (``pan``, ``tilt``), the pose in its :class:`FrameHeader`; otherwise it is that
-    station's mosaic.
-    """
-
-    KIND: ClassVar[str] = "ptu.look"
-    u: float
-    v: float
-    station: str = ""
-    pan: float | None = None
-    tilt: float | None = None
-
-    def __post_init__(self) -> None:
-        _in("u", self.u, 0.0, 1.0)
-        _in("v", self.v, 0.0, 1.0)
-        if not self.station and (self.pan is None or self.tilt is None):
-            raise ValueError("a live-frame look needs the frame's pan and tilt")
-
-
-@dataclass(frozen=True)
-class PtuHalt(Message):
-    KIND: ClassVar[str] = "ptu.halt"
-
-
-@dataclass(frozen=True)
-class PtuHome(Message):
-    KIND: ClassVar[str] = "ptu.home"
-
-
-@dataclass(frozen=True)
-class SurveyStart(Message):
-    """Shoot a rows × cols mosaic centred where the head points (or at pan0/tilt0).
-
-    Fields left out (None) take the rig's configured values.
-    """
-
-    KIND: ClassVar[str] = "survey.start"
-    rows: int | None = None
-    cols: int | None = None
-    downsample: float | None = None
-    profile: str | None = None
-    pan0: float | None = None
-    tilt0: float | None = None
-
-    def __post_init__(self) -> None:
-        if self.rows is not None:
-            _in("rows", self.rows, 1, 16)
-        if self.cols is not None:
-            _in("cols", self.cols, 1, 32)
-        if self.downsample is not None:
-            _in("downsample", self.downsample, 1.0, 16.0)
-
-
-@dataclass(frozen=True)
-class SurveyCancel(Message):
-    KIND: ClassVar[str] = "survey.cancel"
-
-
-@dataclass(frozen=True)
-class SurveyStatus(Message):
-    KIND: ClassVar[str] = "survey.status"
-
-
-@dataclass(frozen=True)
-class ChooseTarget(Message):
-    """The operator's choice at a station: rank 1..3, or 0 for none."""
-
-    KIND: ClassVar[str] = "target.choose"
-    station: str
-    rank: int
-
-    def __post_init__(self) -> None:
-        _in("rank", self.rank, 0, 3)
-
-
-@dataclass(frozen=True)
-class TakeControl(Message):
-    KIND: ClassVar[str] = "control.take"
-    client: str
-
-
-@dataclass(frozen=True)
-class ReleaseControl(Message):
-    KIND: ClassVar[str] = "control.release"
-    client: str
-
-
-@dataclass(frozen=True)
-class ArchiveList(Message):
-    KIND: ClassVar[str] = "archive.list"
-    session: str = ""
-
-
-@dataclass(frozen=True)
-class ArchiveGet(Message):
-    KIND: ClassVar[str] = "archive.get"
-    session: str
-    product: str
-
-
 # -- replies and telemetry ---------------------------------------------------------------
 
 
@@ -276,19 +156,11 @@ class Ack(Message):
     def __post_init__(self) -> None:
         if self.result not in RESULTS:
             raise ValueError(f"result {self.result!r} not one of {', '.join(RESULTS)}")
+        object.__setattr__(self, "detail", clip(self.detail))
 
     @property
     def ok(self) -> bool:
         return self.result == "OK"
-
-
-@dataclass(frozen=True)
-class Hello(Message):
-    KIND: ClassVar[str] = "hello"
-    major: int
-    minor: int
-    build: str = ""
-    rig: str = ""
 
 
 @dataclass(frozen=True)
@@ -337,6 +209,9 @@ class Event(Message):
     KIND: ClassVar[str] = "event"
     level: str
     text: str
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "text", clip(self.text))
 
 
 @dataclass(frozen=True)
@@ -393,6 +268,202 @@ class ArchiveData(Message):
     session: str
     product: str
     data: bytes
+
+
+# -- commands ----------------------------------------------------------------------------
+
+R = TypeVar("R", bound=Message)
+
+
+@dataclass(frozen=True)
+class Request(Message, Generic[R]):
+    """A command: the rig answers it on ``cyborg/<rig>/cmd/<client>/<VERB>`` with a
+    ``REPLY``. Everything about a command is declared on its class, and the key space, the
+    daemon's dispatch, its motion set and the clients derive from it (add a command here)."""
+
+    VERB: ClassVar[str] = ""
+    REPLY: ClassVar[type[Message]] = Ack
+    MOVES: ClassVar[bool] = False
+    """Needs control: it moves the head (or decides where it goes)."""
+
+
+@dataclass(frozen=True)
+class PtuGoto(Request[Ack]):
+    """Point at absolute (pan, tilt) degrees; the unit's own limits are checked later."""
+
+    KIND: ClassVar[str] = "ptu.goto"
+    VERB: ClassVar[str] = "ptu/goto"
+    MOVES: ClassVar[bool] = True
+    pan: float
+    tilt: float
+
+    def __post_init__(self) -> None:
+        _in("pan", self.pan, -360.0, 360.0)
+        _in("tilt", self.tilt, -180.0, 180.0)
+
+
+@dataclass(frozen=True)
+class PtuJog(Request[Ack]):
+    """Step by (pan, tilt) degrees from where the head is."""
+
+    KIND: ClassVar[str] = "ptu.jog"
+    VERB: ClassVar[str] = "ptu/jog"
+    MOVES: ClassVar[bool] = True
+    pan: float = 0.0
+    tilt: float = 0.0
+
+    def __post_init__(self) -> None:
+        _in("pan", self.pan, -90.0, 90.0)
+        _in("tilt", self.tilt, -90.0, 90.0)
+
+
+@dataclass(frozen=True)
+class PtuLook(Request[Ack]):
+    """Point at what a clicked pixel shows; the rig does the geometry, so clients need no
+    camera model.
+
+    ``u``, ``v`` are fractions of the image's width and height (0..1, from the top left),
+    so any display size works. With ``station`` empty the image is a live frame taken at
+    (``pan``, ``tilt``), the pose in its :class:`FrameHeader`; otherwise it is that
+    station's mosaic.
+    """
+
+    KIND: ClassVar[str] = "ptu.look"
+    VERB: ClassVar[str] = "ptu/look"
+    MOVES: ClassVar[bool] = True
+    u: float
+    v: float
+    station: str = ""
+    pan: float | None = None
+    tilt: float | None = None
+
+    def __post_init__(self) -> None:
+        _in("u", self.u, 0.0, 1.0)
+        _in("v", self.v, 0.0, 1.0)
+        if not self.station and (self.pan is None or self.tilt is None):
+            raise ValueError("a live-frame look needs the frame's pan and tilt")
+
+
+@dataclass(frozen=True)
+class PtuHalt(Request[Ack]):
+    KIND: ClassVar[str] = "ptu.halt"
+    VERB: ClassVar[str] = "ptu/halt"
+
+
+@dataclass(frozen=True)
+class PtuHome(Request[Ack]):
+    KIND: ClassVar[str] = "ptu.home"
+    VERB: ClassVar[str] = "ptu/home"
+    MOVES: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class SurveyStart(Request[Ack]):
+    """Shoot a rows × cols mosaic centred where the head points (or at pan0/tilt0).
+
+    Fields left out (None) take the rig's configured values.
+    """
+
+    KIND: ClassVar[str] = "survey.start"
+    VERB: ClassVar[str] = "survey/start"
+    MOVES: ClassVar[bool] = True
+    rows: int | None = None
+    cols: int | None = None
+    downsample: float | None = None
+    profile: str | None = None
+    pan0: float | None = None
+    tilt0: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.rows is not None:
+            _in("rows", self.rows, 1, 16)
+        if self.cols is not None:
+            _in("cols", self.cols, 1, 32)
+        if self.downsample is not None:
+            _in("downsample", self.downsample, 1.0, 16.0)
+
+
+@dataclass(frozen=True)
+class SurveyCancel(Request[Ack]):
+    KIND: ClassVar[str] = "survey.cancel"
+    VERB: ClassVar[str] = "survey/cancel"
+    MOVES: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class SurveyStatus(Request[Status]):
+    KIND: ClassVar[str] = "survey.status"
+    VERB: ClassVar[str] = "survey/status"
+    REPLY: ClassVar[type[Message]] = Status
+
+
+@dataclass(frozen=True)
+class ChooseTarget(Request[Ack]):
+    """The operator's choice at a station: rank 1..3, or 0 for none."""
+
+    KIND: ClassVar[str] = "target.choose"
+    VERB: ClassVar[str] = "target/choose"
+    MOVES: ClassVar[bool] = True
+    station: str
+    rank: int
+
+    def __post_init__(self) -> None:
+        _in("rank", self.rank, 0, 3)
+
+
+@dataclass(frozen=True)
+class TakeControl(Request[Ack]):
+    """For the caller itself, the client named in the command's key; ``client`` may
+    repeat that name and must not name another."""
+
+    KIND: ClassVar[str] = "control.take"
+    VERB: ClassVar[str] = "control/take"
+    client: str = ""
+
+
+@dataclass(frozen=True)
+class ReleaseControl(Request[Ack]):
+    """For the caller itself, the client named in the command's key; ``client`` may
+    repeat that name and must not name another."""
+
+    KIND: ClassVar[str] = "control.release"
+    VERB: ClassVar[str] = "control/release"
+    client: str = ""
+
+
+@dataclass(frozen=True)
+class ArchiveList(Request[ArchiveListing]):
+    KIND: ClassVar[str] = "archive.list"
+    VERB: ClassVar[str] = "archive/list"
+    REPLY: ClassVar[type[Message]] = ArchiveListing
+    session: str = ""
+
+
+@dataclass(frozen=True)
+class ArchiveGet(Request[ArchiveData]):
+    KIND: ClassVar[str] = "archive.get"
+    VERB: ClassVar[str] = "archive/get"
+    REPLY: ClassVar[type[Message]] = ArchiveData
+    session: str
+    product: str
+
+
+@dataclass(frozen=True)
+class Hello(Request["Hello"]):
+    """Both the ``hello`` command and its answer: who the rig is and what it speaks."""
+
+    KIND: ClassVar[str] = "hello"
+    VERB: ClassVar[str] = "hello"
+    major: int
+    minor: int
+    build: str = ""
+    rig: str = ""
+
+
+Hello.REPLY = Hello
+
+REQUESTS: dict[str, type[Request]] = {r.VERB: r for r in Request.__subclasses__()}
+"""Every command by verb."""
 
 
 MESSAGES: dict[str, type[Message]] = {

@@ -1,15 +1,19 @@
-"""Protocol version: a major mismatch is refused, a minor difference is tolerated."""
+"""Protocol version: a major mismatch is refused, a minor difference is tolerated.
+
+2.0: commands carry the caller's name in their key (``cmd/<client>/<verb>``) and the rig
+binds control to it; a 1.x peer is refused with "protocol 2 required".
+"""
 
 from __future__ import annotations
 
-PROTOCOL_MAJOR = 1
-PROTOCOL_MINOR = 1
+PROTOCOL_MAJOR = 2
+PROTOCOL_MINOR = 0
 
 
 def compatible(major: int) -> bool:
     """Peers talk if and only if their majors agree (new minors only add optional fields).
 
-    >>> compatible(1), compatible(2)
+    >>> compatible(2), compatible(1)
     (True, False)
     """
     return major == PROTOCOL_MAJOR

@@ -61,7 +61,7 @@ class Keypad:
         self._dirty.set()
         if ch == ord(" "):  # first, always: halt needs no control and never waits
             self.prompt.prefix = ""
-            self._spawn("halt", lambda: self.client.command("ptu/halt", PtuHalt()), motion=False)
+            self._spawn("halt", lambda: self.client.command(PtuHalt()), motion=False)
             return True
         if self.prompt.prefix:
             self.prompt.prefix = ""
@@ -71,29 +71,27 @@ class Keypad:
         if ch in _ARROWS:
             dp, dt = _ARROWS[ch]
             step = self.prompt.step
-            self._spawn("jog", lambda: self.client.command("ptu/jog", PtuJog(dp * step, dt * step)))
+            self._spawn("jog", lambda: self.client.command(PtuJog(dp * step, dt * step)))
         elif ch in (ord("+"), ord("=")):
             self._step(+1)
         elif ch in (ord("-"), ord("_")):
             self._step(-1)
         elif ch == ord("h"):
-            self._spawn("home", lambda: self.client.command("ptu/home", PtuHome()))
+            self._spawn("home", lambda: self.client.command(PtuHome()))
         elif ch == ord("s"):
-            self._spawn("survey", lambda: self.client.command("survey/start", SurveyStart()))
+            self._spawn("survey", lambda: self.client.command(SurveyStart()))
         elif ch == ord("c"):
-            self._spawn("cancel", lambda: self.client.command("survey/cancel", SurveyCancel()))
+            self._spawn("cancel", lambda: self.client.command(SurveyCancel()))
         elif ch in (ord("0"), ord("1"), ord("2"), ord("3")):
             self._choose(ch - ord("0"))
         elif ch == ord("p"):
             self.prompt.prefix = "p"
         elif ch == ord("t"):
-            take = TakeControl(self.client.name)
-            self._spawn("take", lambda: self.client.command("control/take", take), motion=False)
+            take = TakeControl()
+            self._spawn("take", lambda: self.client.command(take), motion=False)
         elif ch == ord("r"):
-            release = ReleaseControl(self.client.name)
-            self._spawn(
-                "release", lambda: self.client.command("control/release", release), motion=False
-            )
+            release = ReleaseControl()
+            self._spawn("release", lambda: self.client.command(release), motion=False)
         elif ch in (ord("q"), ord("Q")):
             return False
         return True
@@ -108,7 +106,7 @@ class Keypad:
             self.watch.note("refused", "choose: no survey result yet (press s to survey)")
             return
         msg = ChooseTarget(result.station, rank)
-        self._spawn(f"choose #{rank}", lambda: self.client.command("target/choose", msg))
+        self._spawn(f"choose #{rank}", lambda: self.client.command(msg))
 
     def _look(self, rank: int) -> None:
         result = self.watch.view.result
@@ -117,7 +115,7 @@ class Keypad:
             self.watch.note("refused", f"look: there is no point #{rank}")
             return
         msg = PtuGoto(point.pan, point.tilt)
-        self._spawn(f"look at #{rank}", lambda: self.client.command("ptu/goto", msg))
+        self._spawn(f"look at #{rank}", lambda: self.client.command(msg))
 
     # -- commands --------------------------------------------------------------------------
 

@@ -11,15 +11,40 @@ from aiohttp import web
 
 from ..link import transport
 from ..rigclient import RigClient
+from .guard import Guard, allowed_hosts
 from .server import Operator
 
-__all__ = ["run_operator"]
+__all__ = ["add_arguments", "run_operator"]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The console's own flags, besides ``--host`` and ``--port``."""
+    parser.add_argument(
+        "--public-host",
+        action="append",
+        default=[],
+        metavar="NAME[:PORT]",
+        help="a name browsers use to reach the console through a reverse proxy (repeatable "
+        "or comma-separated); requests naming any other host are refused",
+    )
+
+
+def _public_hosts(args: argparse.Namespace) -> list[str]:
+    values = getattr(args, "public_host", None) or []
+    return [name.strip() for value in values for name in value.split(",") if name.strip()]
 
 
 async def _serve(args: argparse.Namespace) -> int:
+    public = _public_hosts(args)
+    try:
+        allowed_hosts(args.host, args.port, public)
+    except ValueError as exc:
+        print(f"cyborg operator: --public-host: {exc}")
+        return 2
     link = transport(args, "peer")
     with RigClient.open(link, args.rig, args.name) as client:
-        operator = Operator(client)
+        guard = Guard()
+        operator = Operator(client, guard)
         runner = web.AppRunner(operator.app(), access_log=None)
         await runner.setup()
         try:
@@ -30,11 +55,16 @@ async def _serve(args: argparse.Namespace) -> int:
             print(f"cyborg operator: cannot listen on {args.host}:{args.port}: {exc.strerror}")
             return 1
         host, port = runner.addresses[0][:2]
+        bound = f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
+        guard.bind(args.host, port, [*public, bound])
         print(
-            f"cyborg operator: http://{host}:{port}/  (rig {args.rig} via "
-            f"{', '.join(link.connect)}; Ctrl-C to stop)",
+            f"cyborg operator: {guard.url(host, port)}  (rig {args.rig} via "
+            f"{', '.join(link.connect)}; Ctrl-C to stop)\n"
+            "  keep this URL private: whoever opens it can drive the rig",
             flush=True,
         )
+        for name in public:
+            print(f"  through the proxy: https://{name}/?token={guard.token}", flush=True)
         stop = asyncio.Event()
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):

@@ -2,7 +2,8 @@
 
 One process per operator: it joins the rig's bus (usually through a zenoh router), folds
 the telemetry with :class:`~clients.watch.RigWatch` and serves a page on 127.0.0.1. The
-page gets the state as JSON and the live view as binary frames over one WebSocket.
+page gets the state as JSON and the live view as binary frames over one WebSocket. Only
+the holder of the launch secret, on the console's own origin, gets in (see :mod:`.guard`).
 
 Frames are latest-wins end to end: each page has one slot that a new frame overwrites,
 and the next frame leaves only when the page has acknowledged the last one. A slow
@@ -26,18 +27,16 @@ from typing import Any
 from aiohttp import WSMsgType, web
 
 from protocol.messages import (
-    ArchiveData,
     ArchiveGet,
     ArchiveList,
-    ArchiveListing,
     ChooseTarget,
-    Message,
     PtuGoto,
     PtuHalt,
     PtuHome,
     PtuJog,
     PtuLook,
     ReleaseControl,
+    Request,
     SurveyCancel,
     SurveyStart,
     TakeControl,
@@ -45,6 +44,7 @@ from protocol.messages import (
 
 from ..rigclient import LiveFrame, RigClient, RigError, RigRefusedError
 from ..watch import RigWatch
+from .guard import ASSETS, INDEX, Guard
 
 __all__ = ["Operator"]
 
@@ -64,36 +64,36 @@ class _Page:
 
 
 class Operator:
-    def __init__(self, client: RigClient) -> None:
+    def __init__(self, client: RigClient, guard: Guard) -> None:
         self.client = client
+        self.guard = guard
         self.watch = RigWatch(client)
         self._pages: set[_Page] = set()
         self._frames: Any = None  # the zenoh subscriber while a page is open
         self._cache: OrderedDict[str, bytes] = OrderedDict()
         self._cached = 0
-        name = client.name
-        self._requests: dict[str, Callable[[dict], tuple[str, Message]]] = {
-            "halt": lambda b: ("ptu/halt", PtuHalt()),
-            "home": lambda b: ("ptu/home", PtuHome()),
-            "goto": lambda b: ("ptu/goto", PtuGoto(b["pan"], b["tilt"])),
-            "jog": lambda b: ("ptu/jog", PtuJog(b["pan"], b["tilt"])),
-            "look": lambda b: (
-                "ptu/look",
-                PtuLook(b["u"], b["v"], b.get("station", ""), b.get("pan"), b.get("tilt")),
+        self._requests: dict[str, Callable[[dict], Request]] = {
+            "halt": lambda b: PtuHalt(),
+            "home": lambda b: PtuHome(),
+            "goto": lambda b: PtuGoto(b["pan"], b["tilt"]),
+            "jog": lambda b: PtuJog(b["pan"], b["tilt"]),
+            "look": lambda b: PtuLook(
+                b["u"], b["v"], b.get("station", ""), b.get("pan"), b.get("tilt")
             ),
-            "survey": lambda b: ("survey/start", SurveyStart()),
-            "cancel": lambda b: ("survey/cancel", SurveyCancel()),
-            "choose": lambda b: ("target/choose", ChooseTarget(b["station"], b["rank"])),
-            "take": lambda b: ("control/take", TakeControl(name)),
-            "release": lambda b: ("control/release", ReleaseControl(name)),
+            "survey": lambda b: SurveyStart(),
+            "cancel": lambda b: SurveyCancel(),
+            "choose": lambda b: ChooseTarget(b["station"], b["rank"]),
+            "take": lambda b: TakeControl(),
+            "release": lambda b: ReleaseControl(),
         }
 
     def app(self) -> web.Application:
         app = web.Application(client_max_size=1 << 16)
+        self.guard.install(app)
         app.add_routes(
             [
-                web.get("/", self._index),
-                web.static("/static", STATIC),
+                web.get("/", self._index, name=INDEX),
+                web.static("/static", STATIC, name=ASSETS),
                 web.get("/ws", self._socket),
                 web.post("/api/{command}", self._command),
                 web.get("/api/archive", self._archive),
@@ -195,7 +195,7 @@ class Operator:
             body = await request.json() if request.can_read_body else {}
             if not isinstance(body, dict):
                 raise ValueError("the body must be a JSON object")
-            command, msg = build(body)
+            msg = build(body)
         except (ValueError, KeyError, TypeError) as exc:
             self.watch.note("refused", f"{name}: bad request: {exc}")
             return web.json_response(
@@ -203,7 +203,7 @@ class Operator:
             )
         outcome = await self.watch.act(
             name,
-            lambda: self.client.command(command, msg),
+            lambda: self.client.command(msg),
             motion=name not in ("halt", "take", "release"),
             take_hint="press Take to take it over",
         )
@@ -216,7 +216,7 @@ class Operator:
     async def _archive(self, request: web.Request) -> web.Response:
         session = request.match_info.get("session", "")
         try:
-            listing = await self.client.typed("archive/list", ArchiveList(session), ArchiveListing)
+            listing = await self.client.command(ArchiveList(session))
         except RigError as exc:
             return web.json_response({"ok": False, "error": str(exc)}, status=502)
         return web.json_response({"ok": True, "session": session, "items": list(listing.items)})
@@ -227,9 +227,7 @@ class Operator:
         data = self._cache.get(key)
         if data is None:
             try:
-                reply = await self.client.typed(
-                    "archive/get", ArchiveGet(session, product), ArchiveData
-                )
+                reply = await self.client.command(ArchiveGet(session, product))
             except RigRefusedError as exc:
                 raise web.HTTPNotFound(text=exc.ack.detail) from None
             except RigError as exc:

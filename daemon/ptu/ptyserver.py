@@ -120,7 +120,7 @@ class PtyEmulatorServer:
     async def start(self) -> PtyEmulatorServer:
         self._loop = asyncio.get_running_loop()
         self._open()
-        self._ticker = self._loop.create_task(self._tick(), name="ptu-emulator.tick")
+        self._ticker = self._loop.create_task(self._tick(), name="cyborgd.emulator.tick")
         return self
 
     async def close(self) -> None:

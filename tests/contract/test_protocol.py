@@ -7,16 +7,23 @@ import math
 import msgpack
 import pytest
 
+from protocol.access import ROLES, access_control, load_users
 from protocol.envelope import MAX_MESSAGE, decode, encode
 from protocol.errors import DecodeError, InvalidFieldError, ProtocolError, VersionError
-from protocol.keys import COMMANDS, Keys
+from protocol.keys import COMMANDS, Keys, check_client
 from protocol.messages import (
+    MAX_TEXT,
     MESSAGES,
+    REQUESTS,
     Ack,
     ChooseTarget,
+    Event,
+    Hello,
     InterestPoint,
     InterestResult,
+    Message,
     PtuGoto,
+    Status,
     SurveyStart,
     message_from,
 )
@@ -25,18 +32,46 @@ from protocol.version import PROTOCOL_MAJOR
 
 def test_keys_are_all_under_the_rig() -> None:
     k = Keys("rig-7")
-    telemetry = [k.frame, k.ptu_state, k.progress, k.result, k.chip, k.events, k.alive]
-    commands = [k.cmd(name) for name in COMMANDS]
+    telemetry = [*k.telemetry, k.alive]
+    commands = [k.cmd("alice", name) for name in COMMANDS]
     assert all(key.startswith("cyborg/rig-7/") for key in telemetry + commands)
     assert len(set(telemetry + commands)) == len(telemetry) + len(commands)
-    assert all(k.command_of(k.cmd(name)) == name for name in COMMANDS)
-    assert k.command_of("cyborg/rig-7/cmd/ptu/explode") is None
-    assert k.command_of("cyborg/other/cmd/ptu/goto") is None
+    assert all(k.command_of(k.cmd("alice", name)) == ("alice", name) for name in COMMANDS)
+    assert all(key.startswith(k.commands_of("alice")[:-2]) for key in commands)
+    assert k.command_of("cyborg/other/cmd/alice/ptu/goto") is None
     for bad in ("", "a/b", "x*", "rig 1", "a" * 65):
         with pytest.raises(ValueError):
             Keys(bad)
     with pytest.raises(ValueError):
-        k.cmd("ptu/explode")
+        k.cmd("alice", "ptu/explode")
+
+
+@pytest.mark.parametrize(
+    "name", ["", "a/b", "x*", "$*", "al ice", "a" * 65, "nul\x00", "rtl\u202e", "<b>", ".."]
+)
+def test_client_names_are_short_printable_identifiers(name: str) -> None:
+    with pytest.raises(InvalidFieldError, match="client name"):
+        check_client(name)
+    with pytest.raises(ValueError):
+        Keys("rig1").cmd(name, "hello")
+
+
+def test_every_command_is_declared_once_on_its_request_class() -> None:
+    """Verb, reply kind and whether it moves the head live on the class; the key space and
+    the daemon's motion set derive from it."""
+    assert set(COMMANDS) == set(REQUESTS)
+    for verb, request in REQUESTS.items():
+        assert verb == request.VERB and issubclass(request.REPLY, Message)
+    moving = {verb for verb, request in REQUESTS.items() if request.MOVES}
+    assert "ptu/goto" in moving and "ptu/halt" not in moving and "control/take" not in moving
+    assert REQUESTS["survey/status"].REPLY is Status and REQUESTS["hello"].REPLY is Hello
+
+
+def test_rig_text_is_clipped_so_clients_can_decode_it() -> None:
+    long = "x" * (5 * MAX_TEXT)
+    for msg in (Ack("ERROR", long), Event("info", long)):
+        back = message_from(msg.KIND, decode(encode(msg.KIND, msg.to_body())).body)
+        assert back == msg and len(encode(msg.KIND, msg.to_body())) < MAX_TEXT + 100
 
 
 def test_round_trip_every_kind() -> None:
@@ -95,7 +130,7 @@ def test_oversized_and_wrong_version() -> None:
     with pytest.raises(DecodeError, match="exceeds"):
         decode(encode("x", {"blob": b"\x00" * 2000}), max_size=1000)
     wrong = msgpack.packb({"v": PROTOCOL_MAJOR + 1, "k": "ptu.goto", "body": {}})
-    with pytest.raises(VersionError, match=f"major {PROTOCOL_MAJOR + 1} is not supported"):
+    with pytest.raises(VersionError, match=f"protocol {PROTOCOL_MAJOR} required"):
         decode(wrong)
     # A newer minor is fine.
     assert decode(msgpack.packb({"v": PROTOCOL_MAJOR, "mv": 99, "k": "ptu.halt"})).minor == 99
@@ -133,3 +168,40 @@ def test_errors_are_value_errors_with_sendable_text() -> None:
     assert ChooseTarget("s", 0).rank == 0
     with pytest.raises(DecodeError, match="missing field 'station'"):
         message_from("target.choose", {"rank": 1})
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('[[user]]\nname = "al ice"\nrole = "operator"', "client name"),
+        ('[[user]]\nname = "alice"\nrole = "admin"', "role 'admin'"),
+        ('[[user]]\nname = "alice"', "exactly a name and a role"),
+        ('[[user]]\nname = "a"\nrole = "viewer"\n[[user]]\nname = "a"\nrole = "operator"', "twice"),
+        ('[[user]]\nname = "rig1"\nrole = "viewer"', "twice"),
+        ("admins = []", "unknown key"),
+        ("[[user", "not valid TOML"),
+    ],
+)
+def test_users_file_errors_say_what(text: str, message: str) -> None:
+    with pytest.raises(ValueError, match=None) as info:
+        load_users(text, "rig1")
+    assert message in str(info.value)
+
+
+def test_access_list_lets_each_name_query_only_its_own_commands() -> None:
+    keys = Keys("rig1")
+    users = load_users(
+        '[[user]]\nname = "alice"\nrole = "operator"\n[[user]]\nname = "bob"\nrole = "viewer"',
+        "rig1",
+    )
+    acl = access_control(keys, users, local=False)
+    assert acl["enabled"] and acl["default_permission"] == "deny"
+    rules = {r["id"]: r for r in acl["rules"]}
+    assert rules["cmd-alice"]["key_exprs"] == ["cyborg/rig1/cmd/alice/**"]
+    assert set(rules["cmd-bob"]["key_exprs"]) == {keys.cmd("bob", v) for v in ROLES["viewer"]}
+    assert all(r["messages"] == ["query"] for k, r in rules.items() if k.startswith("cmd-"))
+    # Only the rig may put: no rule but the rig's lets a put in.
+    puts_in = [r for r in acl["rules"] if "put" in r["messages"] and "ingress" in r["flows"]]
+    assert [r["id"] for r in puts_in] == ["rig"]
+    assert {"rules": ["rig"], "subjects": ["rig"]} in acl["policies"]
+    assert not any(s.get("link_protocols") for s in acl["subjects"])  # a router has no socket

@@ -12,6 +12,7 @@ import pytest
 from daemon.archive import Archive, ArchiveError
 from daemon.config import ConfigError, load
 from daemon.rig import Control
+from daemon.router import load_router
 from daemon.sdnotify import Notifier
 
 
@@ -63,12 +64,34 @@ approach = [300, 60, 10]
         ("rig = 'a/b'", "rig name"),
         ("camera = 3", "[camera] must be a table"),
         ("not toml [", "not valid TOML"),
+        ("[zenoh]\nlisten = ['tcp/0.0.0.0:7447']", "clear text beyond this machine"),
+        ("[zenoh]\nlisten = ['tls/0.0.0.0:7447']", "need tls_ca"),
+        ("[zenoh]\nusers = 'nope.toml'", "zenoh.users"),
+        ("[zenoh]\naccess = {}", "unknown key(s) in [zenoh]: access"),
     ],
 )
 def test_config_errors_name_the_key(tmp_path: Path, text: str, message: str) -> None:
     with pytest.raises(ConfigError, match=None) as info:
         load(_toml(tmp_path, text))
     assert message in str(info.value)
+
+
+def test_the_shipped_config_is_secure_by_default() -> None:
+    """Nothing in clear text beyond the machine, TLS for remote peers, an access list, and
+    a unix socket for the keypad."""
+    cfg = load(Path(__file__).parents[2] / "systemd" / "cyborgd.toml")
+    z = cfg.zenoh
+    assert not z.exposed() and not z.insecure and z.reachable() == ("tls/0.0.0.0:7447",)
+    assert z.unix_sockets() == ("/run/cyborgd/bus.sock",) and z.mtls
+    assert z.access is not None and z.access["default_permission"] == "deny"
+    assert z.tls_ca.endswith("systemd/tls/ca.crt")  # relative to the config file
+
+
+def test_clear_text_beyond_loopback_only_when_said(tmp_path: Path) -> None:
+    text = "[zenoh]\nlisten = ['tcp/0.0.0.0:7447']\ninsecure = true"
+    assert load(_toml(tmp_path, text)).zenoh.exposed() == ("tcp/0.0.0.0:7447",)
+    local = "[zenoh]\nlisten = ['tcp/127.0.0.1:7447', 'tcp/[::1]:7447', 'unixsock-stream//x']"
+    assert load(_toml(tmp_path, local)).zenoh.exposed() == ()
 
 
 def test_missing_config_file(tmp_path: Path) -> None:
@@ -137,3 +160,22 @@ def test_control_is_explicit() -> None:
     assert control.allows("a") and not control.allows("b")
     assert control.take("b") == "a"
     assert not control.release("a") and control.release("b") and control.holder == ""
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('listen = ["tls/0.0.0.0:7448"]\nusers = "users.toml"', "rig is required"),
+        ('rig = "r"\nlisten = ["tcp/0.0.0.0:7448"]\nusers = "users.toml"', "clear text"),
+        ('rig = "r"\nlisten = ["tls/0.0.0.0:7448"]\nusers = "users.toml"', "tls_ca"),
+        ('rig = "r"\nlisten = []\nusers = "nope.toml"', "nope.toml"),
+        ('rig = "r"\nlisten = []\nusers = "users.toml"\nacl = 1', "unknown key(s): acl"),
+    ],
+)
+def test_router_config_errors_say_what(tmp_path: Path, text: str, message: str) -> None:
+    (tmp_path / "users.toml").write_text('[[user]]\nname = "alice"\nrole = "operator"\n')
+    path = tmp_path / "router.toml"
+    path.write_text(text.replace('"users.toml"', f'"{tmp_path / "users.toml"}"'))
+    with pytest.raises(ValueError, match=None) as info:
+        load_router(path)
+    assert message in str(info.value)

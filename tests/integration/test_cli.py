@@ -43,7 +43,7 @@ async def test_scripts_drive_a_station_and_fetch_its_products(
 ) -> None:
     code, status, _ = await cyborg(router, "status")
     assert code == 0 and status["rig"] == "itest" and status["state"] == "idle"
-    assert status["protocol"].startswith("1.") and status["ptu"]["link"] == "ready"
+    assert status["protocol"].startswith("2.") and status["ptu"]["link"] == "ready"
 
     # Nobody holds control: a script takes it to move, and waits for the head to arrive.
     code, moved, _ = await cyborg(router, "goto", "10", "-5", "--wait")
@@ -56,7 +56,7 @@ async def test_scripts_drive_a_station_and_fetch_its_products(
 
     # Another client took over: scripts do not steal control unless told to.
     await other_client.wait_alive()
-    await other_client.command("control/take", TakeControl("intruder"))
+    await other_client.command(TakeControl())
     code, held, err = await cyborg(router, "goto", "0", "0")
     assert code == 1 and held["result"] == "REJECTED" and "intruder" in err and "--take" in err
     code, halted, _ = await cyborg(router, "halt")  # halting needs no control

@@ -15,16 +15,18 @@ import pytest
 
 from clients.rigclient import RigClient, RigError, run_station
 from daemon.camera.simulated import outcrop_panorama
-from protocol.envelope import encode
+from protocol.envelope import decode, encode
 from protocol.messages import (
     Ack,
     ArchiveData,
     ArchiveGet,
     ArchiveList,
     ArchiveListing,
+    Chip,
     ChooseTarget,
     Event,
     Hello,
+    InterestResult,
     PtuGoto,
     PtuHalt,
     PtuLook,
@@ -48,6 +50,14 @@ async def _state(client: RigClient, queue: asyncio.Queue, still: bool = True) ->
             state = await queue.get()
             if not still or not state.moving:
                 return state
+
+
+async def _arrive(client: RigClient, queue: asyncio.Queue, pan: float, tilt: float) -> None:
+    """Wait for the head to stand still at (pan, tilt): states published before the command
+    took effect may still be queued, so one look at the queue is not enough."""
+    state = await _state(client, queue)
+    while (state.pan, state.tilt) != pytest.approx((pan, tilt), abs=0.06):
+        state = await _state(client, queue)
 
 
 async def _until(queue: asyncio.Queue, station: str, stages: set[str]) -> SurveyProgress:
@@ -78,17 +88,17 @@ async def test_full_survey_over_the_bus(daemon, client: RigClient, tmp_path: Pat
     archive = Path(daemon.ready["archive"])
     alive = client.alive()
     assert await asyncio.wait_for(alive.get(), 10) is True
-    progress = client.subscribe(client.keys.progress)
-    results = client.subscribe(client.keys.result)
-    chips = client.subscribe(client.keys.chip)
+    progress = client.subscribe(client.keys.progress, SurveyProgress)
+    results = client.subscribe(client.keys.result, InterestResult)
+    chips = client.subscribe(client.keys.chip, Chip)
     frames = client.frames()
-    hello = await client.call("hello", Hello(PROTOCOL_MAJOR, 0))
+    hello = await client.call(Hello(PROTOCOL_MAJOR, 0))
     assert isinstance(hello, Hello) and hello.rig == "itest" and hello.major == PROTOCOL_MAJOR
     frame = await asyncio.wait_for(frames.get(), 10)
     image = cv2.imdecode(np.frombuffer(frame.jpeg, np.uint8), cv2.IMREAD_COLOR)
     assert image.shape == (576, 720, 3) and frame.header.width == 720
 
-    await client.command("control/take", TakeControl("tester"))
+    await client.command(TakeControl())
     result = await run_station(client, progress, results, SurveyStart(rows=2, cols=3))
     assert len(result.points) == 3 and (result.width, result.height) == (540, 288)
     # The planted targets are known in world angles: the best points land on them.
@@ -109,38 +119,33 @@ async def test_full_survey_over_the_bus(daemon, client: RigClient, tmp_path: Pat
     assert chip.jpeg[:2] == b"\xff\xd8" and chip.product.startswith("chips/")
 
     session = result.station.split("/")[0]
-    listing = await client.call("archive/list", ArchiveList())
+    listing = await client.call(ArchiveList())
     assert isinstance(listing, ArchiveListing) and session in listing.items
-    products = await client.call("archive/list", ArchiveList(session))
+    products = await client.call(ArchiveList(session))
     station = result.station.split("/")[1]
     assert f"{station}/analysis/overlay.png" in products.items
     assert f"{station}/tiles/r1c0.png" in products.items
-    data = await client.call("archive/get", ArchiveGet(session, f"{station}/analysis/overlay.png"))
+    data = await client.call(ArchiveGet(session, f"{station}/analysis/overlay.png"))
     assert isinstance(data, ArchiveData)
     assert data.data == (archive / result.station / "analysis/overlay.png").read_bytes()
     for bad in ("../../etc/passwd", f"{station}/manifest.json/..", "nope.png", ".hidden"):
-        reply = await client.call("archive/get", ArchiveGet(session, bad))
+        reply = await client.call(ArchiveGet(session, bad))
         assert isinstance(reply, Ack) and reply.result == "REJECTED"
 
     # Clicks: a mosaic pixel re-points at what it shows; a live pixel too, from its frame's pose.
-    states = client.subscribe(client.keys.ptu_state)
+    states = client.subscribe(client.keys.ptu_state, PtuState)
     best = result.points[0]
-    await client.command(
-        "ptu/look",  # point x, y index pixels; their centres are at +0.5
+    await client.command(  # point x, y index pixels; their centres are at +0.5
         PtuLook((best.x + 0.5) / result.width, (best.y + 0.5) / result.height, result.station),
     )
-    await asyncio.sleep(0.3)
-    here = await _state(client, states)
-    assert (here.pan, here.tilt) == pytest.approx((best.pan, best.tilt), abs=0.06)
-    await client.command("ptu/look", PtuLook(1.0, 0.5, pan=0.0, tilt=0.0))
-    await asyncio.sleep(0.3)
-    here = await _state(client, states)
-    assert (here.pan, here.tilt) == pytest.approx((15.0, 0.0), abs=0.06)  # the edge of 30 deg
-    reply = await client.call("ptu/look", PtuLook(0.5, 0.5, f"{session}/st99-1m"))
+    await _arrive(client, states, best.pan, best.tilt)
+    await client.command(PtuLook(1.0, 0.5, pan=0.0, tilt=0.0))
+    await _arrive(client, states, 15.0, 0.0)  # the edge of 30 deg
+    reply = await client.call(PtuLook(0.5, 0.5, f"{session}/st99-1m"))
     assert isinstance(reply, Ack) and reply.result == "REJECTED" and "st99" in reply.detail
 
     # The approach loop: choosing target 1 aims the next station at it, 60 m away.
-    ack = await client.command("target/choose", ChooseTarget(result.station, 1))
+    ack = await client.command(ChooseTarget(result.station, 1))
     assert "60 m" in ack.detail
     second = await run_station(client, progress, results, SurveyStart(rows=1, cols=2))
     m2 = _manifest(archive, second.station)
@@ -154,16 +159,13 @@ async def test_malformed_and_wrong_version_requests_get_error_acks(
     daemon, client: RigClient
 ) -> None:
     await client.wait_alive()
-    states = client.subscribe(client.keys.ptu_state, maxsize=1)
-    await client.command("control/take", TakeControl("tester"))
+    states = client.subscribe(client.keys.ptu_state, PtuState, maxsize=1)
+    await client.command(TakeControl())
     before = await _state(client, states)
-    hostile = {
+    hostile: dict[str, bytes] = {
         "garbage": b"\xc1\xff not msgpack",
         "empty": b"",
         "a list": msgpack.packb([1, 2, 3]),
-        "wrong major": encode("ptu.goto", {"pan": 10.0, "tilt": 0.0}, src="tester").replace(
-            b"\xa1v\x01", b"\xa1v\x07"
-        ),
         "wrong kind": encode("ptu.halt", {}, src="tester"),
         "wrong type": encode("ptu.goto", {"pan": "ten", "tilt": 0.0}, src="tester"),
         "out of range": encode("ptu.goto", {"pan": 1e9, "tilt": 0.0}, src="tester"),
@@ -175,16 +177,23 @@ async def test_malformed_and_wrong_version_requests_get_error_acks(
         reply = await client.call_raw("ptu/goto", payload)
         assert isinstance(reply, Ack) and reply.result == "ERROR", what
         assert reply.detail.startswith("ptu/goto:"), (what, reply.detail)
-    wrong_major = await client.call_raw("ptu/goto", hostile["wrong major"])
-    assert "major 7" in wrong_major.detail
+    # A 1.x client is told, in plain text any version can read, to update.
+    v1 = encode("ptu.goto", {"pan": 10.0, "tilt": 0.0}, src="tester").replace(
+        b"\xa1v\x02", b"\xa1v\x01"
+    )
+    with pytest.raises(RigError, match="protocol 2 required"):
+        await client.call_raw("ptu/goto", v1)
+    # A 64 KiB unknown kind is answered with a short error the client can decode.
+    reply = await client.call_raw("ptu/goto", encode("x" * 65_000, {}, src="tester"))
+    assert reply.result == "ERROR" and len(reply.detail) < 200
     # Beyond the unit's own limits: refused before anything is sent.
-    reply = await client.call("ptu/goto", PtuGoto(200.0, 0.0))
+    reply = await client.call(PtuGoto(200.0, 0.0))
     assert reply.result == "LIMIT" and "outside the soft limits" in reply.detail
     after = await _state(client, states)
     assert (after.pan, after.tilt) == (before.pan, before.tilt)
     # ...and the daemon is fine.
-    assert isinstance(await client.call("survey/status", SurveyStatus()), Status)
-    await client.command("ptu/goto", PtuGoto(5.0, -2.0))
+    assert isinstance(await client.call(SurveyStatus()), Status)
+    await client.command(PtuGoto(5.0, -2.0))
     state = await _state(client, states)
     while abs(state.pan - 5.0) > 0.06:
         state = await _state(client, states)
@@ -196,30 +205,72 @@ async def test_control_one_client_at_a_time(
 ) -> None:
     await client.wait_alive()
     await other_client.wait_alive()
-    events = client.subscribe(client.keys.events)
-    reply = await other_client.call("ptu/goto", PtuGoto(3.0, 0.0))
+    events = client.subscribe(client.keys.events, Event)
+    reply = await other_client.call(PtuGoto(3.0, 0.0))
     assert reply.result == "REJECTED" and "control/take" in reply.detail
-    await client.command("control/take", TakeControl("tester"))
-    reply = await other_client.call("ptu/goto", PtuGoto(3.0, 0.0))
+    await client.command(TakeControl())
+    reply = await other_client.call(PtuGoto(3.0, 0.0))
     assert reply.result == "REJECTED" and "held by tester" in reply.detail
-    reply = await other_client.call("survey/start", SurveyStart())
+    reply = await other_client.call(SurveyStart())
     assert reply.result == "REJECTED"
-    reply = await other_client.call("control/release", ReleaseControl("intruder"))
+    reply = await other_client.call(ReleaseControl())
     assert reply.result == "REJECTED"
     # Halt always works, whoever sends it.
-    assert (await other_client.call("ptu/halt", PtuHalt())).ok
+    assert (await other_client.call(PtuHalt())).ok
     # Take-over is explicit, and the previous holder hears about it.
-    await other_client.command("control/take", TakeControl("intruder"))
+    await other_client.command(TakeControl())
     async with asyncio.timeout(5):
         while True:
             event: Event = await events.get()
             if "intruder took control from tester" in event.text:
                 break
-    reply = await client.call("ptu/goto", PtuGoto(3.0, 0.0))
+    reply = await client.call(PtuGoto(3.0, 0.0))
     assert reply.result == "REJECTED"
-    assert (await other_client.call("ptu/goto", PtuGoto(3.0, 0.0))).ok
-    status = await client.call("survey/status", SurveyStatus())
+    assert (await other_client.call(PtuGoto(3.0, 0.0))).ok
+    status = await client.call(SurveyStatus())
     assert status.controller == "intruder"
+
+
+async def _raw(client: RigClient, key: str, payload: bytes) -> Ack:
+    """A query on any key, bypassing the client library's own name checks."""
+    replies = await asyncio.to_thread(
+        lambda: list(client.session.get(key, payload=payload, timeout=5.0))
+    )
+    assert replies and replies[0].ok is not None, key
+    env = decode(replies[0].ok.payload.to_bytes())
+    return Ack.from_body(env.body)
+
+
+async def test_identity_is_the_key_and_names_are_checked(
+    daemon, client: RigClient, other_client: RigClient
+) -> None:
+    """The caller is the key's client segment: an envelope claiming someone else is refused,
+    and so is a name that is not a short printable identifier."""
+    await client.wait_alive()
+    events = client.subscribe(client.keys.events, Event)
+    await client.command(TakeControl())
+    # intruder's key, tester's name in the envelope: refused, the holder keeps control.
+    forged = encode("ptu.goto", {"pan": 20.0, "tilt": -10.0}, src="tester")
+    reply = await other_client.call_raw("ptu/goto", forged)
+    assert reply.result == "REJECTED" and "speaks only for itself" in reply.detail
+    # Nor can anyone take control on another's behalf.
+    reply = await other_client.call(TakeControl("tester"))
+    assert reply.result == "REJECTED"
+    assert (await client.command(SurveyStatus())).controller == "tester"
+    root = client.keys.root
+    for name in ("bad\u202ename", "<b>x</b>", "a" * 4096, "tab\tname"):
+        body = encode("control.take", {}, src=name)
+        reply = await _raw(client, f"{root}/cmd/{name}/control/take", body)
+        assert reply.result == "ERROR" and "client name" in reply.detail, name
+        assert len(reply.detail) < 300
+    assert (await client.command(SurveyStatus())).controller == "tester"
+    # Every change of controller is announced.
+    await client.command(ReleaseControl())
+    texts = []
+    async with asyncio.timeout(5):
+        while "tester released control" not in texts:
+            texts.append((await events.get()).text)
+    assert "tester took control" in texts
 
 
 async def test_sigterm_mid_survey_leaves_a_consistent_archive(daemon, client: RigClient) -> None:
@@ -227,9 +278,9 @@ async def test_sigterm_mid_survey_leaves_a_consistent_archive(daemon, client: Ri
     archive = Path(daemon.ready["archive"])
     alive = client.alive()
     assert await asyncio.wait_for(alive.get(), 10) is True
-    progress = client.subscribe(client.keys.progress)
-    await client.command("control/take", TakeControl("tester"))
-    station = (await client.command("survey/start", SurveyStart(rows=2, cols=3))).detail
+    progress = client.subscribe(client.keys.progress, SurveyProgress)
+    await client.command(TakeControl())
+    station = (await client.command(SurveyStart(rows=2, cols=3))).detail
     await _until(progress, station, {"tiles"})
     daemon.proc.send_signal(signal.SIGTERM)
     assert await asyncio.wait_for(daemon.proc.wait(), 20) == 0
@@ -248,15 +299,13 @@ async def test_worker_killed_mid_survey_fails_that_survey_only(
     daemon = await start_daemon(downsample=1.0)
     await client.wait_alive()
     archive = Path(daemon.ready["archive"])
-    progress = client.subscribe(client.keys.progress)
-    events = client.subscribe(client.keys.events)
-    await client.command("control/take", TakeControl("tester"))
-    status = await client.call("survey/status", SurveyStatus())
+    progress = client.subscribe(client.keys.progress, SurveyProgress)
+    events = client.subscribe(client.keys.events, Event)
+    await client.command(TakeControl())
+    status = await client.call(SurveyStatus())
     old_pid = status.worker_pid
     assert old_pid == daemon.ready["worker_pid"] != 0
-    station = (
-        await client.command("survey/start", SurveyStart(rows=2, cols=3, downsample=1.0))
-    ).detail
+    station = (await client.command(SurveyStart(rows=2, cols=3, downsample=1.0))).detail
     await _until(progress, station, {"analysis"})
     os.kill(old_pid, signal.SIGKILL)
     final = await _until(progress, station, {"failed", "done"})
@@ -272,10 +321,10 @@ async def test_worker_killed_mid_survey_fails_that_survey_only(
     m = _check_consistent(archive, station)
     assert m["status"] == "failed" and "worker" in m["reason"]
     assert not (archive / station / "analysis").exists()
-    status = await client.call("survey/status", SurveyStatus())
+    status = await client.call(SurveyStatus())
     assert status.worker_pid not in (0, old_pid) and "worker" in status.last_error
     # The next survey works.
-    results = client.subscribe(client.keys.result)
+    results = client.subscribe(client.keys.result, InterestResult)
     result = await run_station(client, progress, results, SurveyStart(rows=1, cols=2))
     assert len(result.points) == 3
     assert daemon.proc.returncode is None
@@ -286,9 +335,9 @@ async def test_garbage_on_the_serial_line_does_not_break_a_survey(
 ) -> None:
     daemon = await start_daemon("&fault=garbage:PP:3&fault=garbage:TP:7&fault=garbage:TP:20")
     await client.wait_alive()
-    progress = client.subscribe(client.keys.progress)
-    results = client.subscribe(client.keys.result)
-    await client.command("control/take", TakeControl("tester"))
+    progress = client.subscribe(client.keys.progress, SurveyProgress)
+    results = client.subscribe(client.keys.result, InterestResult)
+    await client.command(TakeControl())
     result = await run_station(client, progress, results, SurveyStart(rows=1, cols=2))
     assert len(result.points) == 3
     assert await daemon.stop() == 0
@@ -296,6 +345,6 @@ async def test_garbage_on_the_serial_line_does_not_break_a_survey(
 
 async def test_commands_without_a_daemon_fail_clearly(client: RigClient) -> None:
     with pytest.raises(RigError, match="no rig 'itest' answers"):
-        await client.call("survey/status", SurveyStatus(), timeout=1.0)
+        await client.call(SurveyStatus(), timeout=1.0)
     with pytest.raises(RigError, match="not on the bus"):
         await client.wait_alive(timeout=0.3)

@@ -56,7 +56,7 @@ async def test_operator_page_surveys_and_repoints(
     await wait("document.getElementById('alive').textContent.includes('up')")
 
     await client.wait_alive()
-    states = client.subscribe(client.keys.ptu_state, maxsize=1)
+    states = client.subscribe(client.keys.ptu_state, PtuState, maxsize=1)
 
     # A survey started from the page completes and shows its overlay and points.
     await asyncio.to_thread(browser.click, "#survey")
@@ -120,15 +120,12 @@ async def test_operator_refuses_plainly(
     await asyncio.to_thread(browser.open, operator)
     await asyncio.to_thread(browser.wait, "window.cyborgStats().frames >= 1")
     await other_client.wait_alive()
-    await other_client.command("control/take", TakeControl("intruder"))
-    reply = await asyncio.to_thread(
-        browser.js,
-        "return fetch('/api/goto', {method: 'POST', body: JSON.stringify({pan: 1, tilt: 1})})"
-        ".then(r => r.json());",
+    await other_client.command(TakeControl())
+    post = (
+        "return fetch('/api/goto', {method: 'POST', body: arguments[0], headers: "
+        "{'content-type': 'application/json'}}).then(r => r.json());"
     )
+    reply = await asyncio.to_thread(browser.js, post, '{"pan": 1, "tilt": 1}')
     assert reply["ok"] is False and reply["result"] == "REJECTED" and "intruder" in reply["detail"]
-    bad = await asyncio.to_thread(
-        browser.js,
-        "return fetch('/api/goto', {method: 'POST', body: '{not json'}).then(r => r.json());",
-    )
+    bad = await asyncio.to_thread(browser.js, post, "{not json")
     assert bad["ok"] is False and bad["result"] == "ERROR"

@@ -20,10 +20,16 @@ window.cyborgState = () => state && state.result;
 window.cyborgResetStats = () => { latencies.length = 0; frames = 0; };
 
 function connect() {
-  socket = new WebSocket(`ws://${location.host}/ws`);
+  socket = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
   socket.binaryType = "arraybuffer";
   socket.onmessage = (ev) => (typeof ev.data === "string" ? onState(JSON.parse(ev.data)) : onFrame(ev.data));
-  socket.onclose = () => { $("alive").textContent = "console lost its server"; $("alive").className = "down"; setTimeout(connect, 1000); };
+  socket.onclose = async () => {
+    // A console restarted with a new secret refuses the old cookie: say so plainly.
+    const page = await fetch("/", { method: "HEAD" }).catch(() => null);
+    $("alive").textContent = page && page.status === 401 ? "signed out: open the URL the operator printed" : "console lost its server";
+    $("alive").className = "down";
+    setTimeout(connect, 1000);
+  };
 }
 
 async function onFrame(buffer) {
