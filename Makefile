@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo test bench bench-quality bench-real bench-speed bench-ptu bench-survey bench-bus bench-operator lint clean
+.PHONY: demo test bench bench-quality bench-real bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security lint clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -23,7 +23,7 @@ test: $(STAMP)
 	$(PY) -m ruff check .
 	$(PY) -m pytest -q
 
-bench: bench-quality bench-real bench-speed bench-ptu bench-survey bench-bus bench-operator
+bench: bench-quality bench-real bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security
 
 bench-quality: $(STAMP)
 	$(PY) -m bench.quality --scenes 120
@@ -47,6 +47,10 @@ bench-bus: $(STAMP)
 # Needs headless Chromium: Debian's chromium and chromium-driver.
 bench-operator: $(STAMP)
 	$(PY) -m bench.operator
+
+# Hostile queries, strangers and cross-origin console requests against a TLS rig; TLS cost.
+bench-security: $(STAMP)
+	$(PY) -m bench.security
 
 lint: $(STAMP)
 	$(PY) -m ruff check .

@@ -96,7 +96,7 @@ async def _hostile_queries(alice: RigClient, n: int, seconds: float) -> Counter:
     """``n`` hostile requests over every verb, 32 at a time, within ``seconds``."""
     rng = random.Random(7)
     verbs = [v for v in COMMANDS if v not in ("hello", "survey/status", "archive/list")]
-    out: Counter = Counter()
+    out: Counter = Counter(tried=0, refused=0, executed=0)
     deadline = time.monotonic() + seconds
     sem = asyncio.Semaphore(32)
 
@@ -108,13 +108,16 @@ async def _hostile_queries(alice: RigClient, n: int, seconds: float) -> Counter:
             try:
                 reply = await alice.call_raw(verb, payload, timeout=5.0)
             except RigUnavailableError:
-                out["refused"] += 1  # no answer
+                out["refused"] += 1
+                out["answer: none"] += 1
                 return
             except RigError:
-                out["refused"] += 1  # a plain-text error reply (another version)
+                out["refused"] += 1
+                out["answer: plain-text error"] += 1  # another protocol version
                 return
             ok = isinstance(reply, Ack) and reply.ok
             out["executed" if ok else "refused"] += 1
+            out[f"answer: {reply.result if isinstance(reply, Ack) else reply.KIND}"] += 1
 
     await asyncio.gather(*(one(v, _hostile(rng, v)) for v in rng.choices(verbs, k=n)))
     out["tried"] = n
@@ -122,7 +125,7 @@ async def _hostile_queries(alice: RigClient, n: int, seconds: float) -> Counter:
 
 
 async def _strangers(endpoint: str, pki: Path) -> Counter:
-    out: Counter = Counter()
+    out: Counter = Counter(tried=0, refused=0, executed=0)
     links = {
         "no certificate": Transport("client", connect=(endpoint,), tls_ca=str(pki / "ca.crt")),
         "another CA": Transport(
@@ -172,7 +175,7 @@ async def _strangers(endpoint: str, pki: Path) -> Counter:
 
 async def _console(endpoint: str, pki: Path, log: Path) -> Counter:
     """Hostile HTTP against a real console (signed in where the attack would be)."""
-    out: Counter = Counter()
+    out: Counter = Counter(tried=0, refused=0, executed=0)
     link = ["--tls-ca", str(pki / "ca.crt"), "--tls-cert", str(pki / "alice.crt")]
     link += ["--tls-key", str(pki / "alice.key")]
     async with operator(endpoint, RIG, "alice", log, link) as url:
@@ -181,17 +184,17 @@ async def _console(endpoint: str, pki: Path, log: Path) -> Counter:
         async with aiohttp.ClientSession() as http:
             async with http.get(url, allow_redirects=False) as r:
                 cookie = r.cookies
-            jar = {k: v.value for k, v in cookie.items()}
+            signed = {"Cookie": "; ".join(f"{k}={v.value}" for k, v in cookie.items())}
             evil = {"Origin": "http://evil.example"}
             rebind = {"Host": f"rebind.example:{host.rsplit(':', 1)[-1]}"}
             attempts = [
-                ("post", "/api/take", {"headers": evil, "json": {}, "cookies": jar}),
+                ("post", "/api/take", {"headers": evil | signed, "json": {}}),
                 ("post", "/api/goto", {"headers": evil, "json": {"pan": 9, "tilt": 1}}),
-                ("post", "/api/take", {"data": "{}", "cookies": jar}),  # text/plain
+                ("post", "/api/take", {"headers": signed, "data": "{}"}),  # text/plain
                 ("post", "/api/take", {"json": {}}),  # no cookie
                 ("get", "/api/archive", {}),
-                ("get", "/api/archive", {"headers": {"Host": "evil.example"}, "cookies": jar}),
-                ("post", "/api/take", {"headers": rebind, "json": {}, "cookies": jar}),
+                ("get", "/api/archive", {"headers": {"Host": "evil.example"} | signed}),
+                ("post", "/api/take", {"headers": rebind | signed, "json": {}}),
             ]
             for method, path, kw in attempts * 20:
                 out["tried"] += 1
@@ -200,7 +203,7 @@ async def _console(endpoint: str, pki: Path, log: Path) -> Counter:
             for _ in range(20):
                 out["tried"] += 1
                 try:
-                    ws = await http.ws_connect(base + "/ws", headers=evil, cookies=jar)
+                    ws = await http.ws_connect(base + "/ws", headers=evil | signed)
                     await ws.close()
                     out["executed"] += 1
                 except aiohttp.WSServerHandshakeError:
@@ -243,8 +246,8 @@ async def _run(queries: int, seconds: float) -> dict:
         root = Path(tmp)
         pki = make_certificates(root / "pki", (RIG,), ("alice", "bob", "eve"))
         (pki / "users.toml").write_text(USERS)
-        tls_ep, tcp_ep = f"tls/127.0.0.1:{free_port()}", f"tcp/127.0.0.1:{free_port()}"
-        keys = {"listen": [tls_ep, tcp_ep], **_tls(pki, RIG), "users": str(pki / "users.toml")}
+        tls_ep = f"tls/127.0.0.1:{free_port()}"
+        keys = {"listen": [tls_ep], **_tls(pki, RIG), "users": str(pki / "users.toml")}
         config = root / "cyborgd.toml"
         config.write_text(simulated_config(RIG, root / "archive", frame_rate=FPS, zenoh=keys))
         daemon: Daemon = await spawn(["--config", str(config)], root / "cyborgd.log")
@@ -267,13 +270,19 @@ async def _run(queries: int, seconds: float) -> dict:
                 report["head moved"] = moved
             report["crashed"] = int(daemon.proc.returncode is not None)
             report["rss_kib"] = {"before": rss0, "after": _rss_kib(daemon.pid)}
+            bob = Transport("client", connect=(tls_ep,), **_tls(pki, "bob"))
+            report["frames"] = {"tls + acl": await _frame_latency(bob, seconds)}
+        finally:
+            await daemon.stop()
+        # The same rig in clear text on loopback, no access list: the baseline.
+        tcp_ep = f"tcp/127.0.0.1:{free_port()}"
+        config.write_text(simulated_config(RIG, root / "archive", listen=[tcp_ep], frame_rate=FPS))
+        daemon = await spawn(["--config", str(config)], root / "cyborgd-plain.log")
+        try:
             plain = Transport("client", connect=(tcp_ep,))
-            report["frames"] = {
-                "plain tcp": await _frame_latency(plain, seconds),
-                "tls + acl": await _frame_latency(
-                    Transport("client", connect=(tls_ep,), **_tls(pki, "bob")), seconds
-                ),
-            }
+            report["frames"] = {"plain tcp": await _frame_latency(plain, seconds)} | report[
+                "frames"
+            ]
         finally:
             await daemon.stop()
     return report
@@ -295,6 +304,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{name:<16} {c['tried']:>7} {c['refused']:>8} {c['executed']:>9}")
     hq = report["hostile queries"]
     print(f"hostile queries took {hq['seconds']} s; not sent: {hq['not sent (time bound)']}")
+    answers = sorted((k.split(": ", 1)[1], v) for k, v in hq.items() if k.startswith("answer: "))
+    print("  answered " + ", ".join(f"{k} {v}" for k, v in answers))
     print(f"daemon crashed: {report['crashed']}; head moved by an attempt: {report['head moved']}")
     rss = report["rss_kib"]
     print(f"daemon RSS: {rss['before'] / 1024:.1f} MiB before, {rss['after'] / 1024:.1f} MiB after")

@@ -330,6 +330,40 @@ async def test_worker_killed_mid_survey_fails_that_survey_only(
     assert daemon.proc.returncode is None
 
 
+def _gone(pid: int) -> bool:
+    """The process no longer runs (a zombie awaiting its reaper counts as gone)."""
+    try:
+        state = Path(f"/proc/{pid}/status").read_text()
+    except FileNotFoundError:
+        return True
+    return "State:\tZ" in state
+
+
+async def test_daemon_killed_mid_analysis_leaves_no_worker_and_an_incomplete_station(
+    start_daemon, client: RigClient
+) -> None:
+    """SIGKILL gives the daemon no chance to clean up: the kernel takes its worker with it,
+    and the restarted daemon marks the station incomplete and removes the partial analysis."""
+    daemon = await start_daemon(downsample=1.0)
+    await client.wait_alive()
+    archive = Path(daemon.ready["archive"])
+    worker = daemon.ready["worker_pid"]
+    progress = client.subscribe(client.keys.progress, SurveyProgress)
+    await client.command(TakeControl())
+    station = (await client.command(SurveyStart(rows=2, cols=3, downsample=1.0))).detail
+    await _until(progress, station, {"analysis"})
+    daemon.proc.send_signal(signal.SIGKILL)
+    await asyncio.wait_for(daemon.proc.wait(), 10)
+    async with asyncio.timeout(10):
+        while not _gone(worker):
+            await asyncio.sleep(0.05)
+    again = await start_daemon()
+    assert again.ready["recovered"] == [station]
+    m = _check_consistent(archive, station)  # no .analysis.partial left either
+    assert m["status"] == "incomplete"
+    assert "BrokenPipe" not in daemon.log.read_text()
+
+
 async def test_garbage_on_the_serial_line_does_not_break_a_survey(
     start_daemon, client: RigClient
 ) -> None:
