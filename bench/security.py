@@ -188,13 +188,13 @@ async def _console(endpoint: str, pki: Path, log: Path) -> Counter:
             evil = {"Origin": "http://evil.example"}
             rebind = {"Host": f"rebind.example:{host.rsplit(':', 1)[-1]}"}
             attempts = [
-                ("post", "/api/take", {"headers": evil | signed, "json": {}}),
-                ("post", "/api/goto", {"headers": evil, "json": {"pan": 9, "tilt": 1}}),
-                ("post", "/api/take", {"headers": signed, "data": "{}"}),  # text/plain
-                ("post", "/api/take", {"json": {}}),  # no cookie
+                ("post", "/api/control/take", {"headers": evil | signed, "json": {}}),
+                ("post", "/api/ptu/goto", {"headers": evil, "json": {"pan": 9, "tilt": 1}}),
+                ("post", "/api/control/take", {"headers": signed, "data": "{}"}),  # text/plain
+                ("post", "/api/control/take", {"json": {}}),  # no cookie
                 ("get", "/api/archive", {}),
                 ("get", "/api/archive", {"headers": {"Host": "evil.example"} | signed}),
-                ("post", "/api/take", {"headers": rebind | signed, "json": {}}),
+                ("post", "/api/control/take", {"headers": rebind | signed, "json": {}}),
             ]
             for method, path, kw in attempts * 20:
                 out["tried"] += 1

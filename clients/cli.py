@@ -1,5 +1,6 @@
 """Plain commands for scripts: ``cyborg status | goto | survey | fetch | list | choose |
-halt | take | release``, each printing one JSON object with ``--json``.
+halt | take | release``, and ``cyborg call VERB FIELDS`` for any command of the protocol,
+each printing one JSON object with ``--json``.
 
 Exit status: 0 done; 1 the rig refused or failed (the JSON says why); 2 a bad request;
 3 the rig is not reachable. Motion takes control when nobody holds it; from another client only with
@@ -20,6 +21,7 @@ from typing import Any
 import zenoh
 
 from protocol.messages import (
+    REQUESTS,
     ArchiveGet,
     ArchiveList,
     ChooseTarget,
@@ -213,6 +215,23 @@ async def _run(command: Command, args: argparse.Namespace) -> int:
     return code
 
 
+async def _call(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
+    """Any command, straight from the registry: a new command needs no new code here."""
+    request = REQUESTS[args.verb]
+    try:
+        body = json.loads(args.fields)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"fields: not JSON: {exc}") from None
+    if not isinstance(body, dict):
+        raise ValueError("fields: a JSON object, e.g. {}")
+    msg = request.from_body(body)
+    if request.MOVES:
+        await client.ensure_control(args.take)
+    reply = await client.command(msg)
+    fields = {k: v for k, v in reply.to_body().items() if not isinstance(v, bytes)}
+    return {"ok": True, "kind": reply.KIND, **fields}, json.dumps(fields)
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the script commands to ``cyborg``'s parser."""
 
@@ -255,3 +274,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     command("halt", _halt, "stop the head (and any survey) now; needs no control")
     command("take", _take, "take control of the rig's motion")
     command("release", _release, "release control")
+    call = command(
+        "call",
+        _call,
+        "send any command of the protocol by its verb, fields as JSON; print the reply",
+        motion=True,
+    )
+    call.add_argument("verb", choices=sorted(REQUESTS), metavar="VERB", help=", ".join(REQUESTS))
+    call.add_argument("fields", nargs="?", default="{}", help='e.g. \'{"pan": 10, "tilt": -2}\'')

@@ -76,21 +76,10 @@ class Commands:
         self._encode = encode
         self._announce = announce
         self._max_reply = max_reply
+        # One handler per verb, named after it (``ptu/goto`` -> ``_ptu_goto``): a command
+        # declared in protocol.messages without its handler here fails at start-up.
         self._handlers: dict[str, Callable[[Any, str], Awaitable[Message]]] = {
-            "ptu/goto": self._goto,
-            "ptu/jog": self._jog,
-            "ptu/look": self._look,
-            "ptu/halt": self._halt,
-            "ptu/home": self._home,
-            "survey/start": self._survey_start,
-            "survey/cancel": self._survey_cancel,
-            "survey/status": self._status,
-            "target/choose": self._choose,
-            "control/take": self._take,
-            "control/release": self._release,
-            "archive/list": self._list,
-            "archive/get": self._get,
-            "hello": self._hello,
+            verb: getattr(self, "_" + verb.replace("/", "_")) for verb in REQUESTS
         }
 
     async def handle(self, client: str, verb: str, payload: bytes) -> bytes:
@@ -156,20 +145,20 @@ class Commands:
         if self.survey.running:
             raise SurveyBusyError(f"{name}: a survey is moving the head; cancel it first")
 
-    async def _goto(self, msg: PtuGoto, src: str) -> Message:
+    async def _ptu_goto(self, msg: PtuGoto, src: str) -> Message:
         self._idle("ptu/goto")
         await self.rig.ptu.move_to(msg.pan, msg.tilt, wait=False)
         self.rig.mark_moving()
         return Ack("OK", f"moving to pan {msg.pan:.3f}, tilt {msg.tilt:.3f}")
 
-    async def _jog(self, msg: PtuJog, src: str) -> Message:
+    async def _ptu_jog(self, msg: PtuJog, src: str) -> Message:
         self._idle("ptu/jog")
         here = self.rig.pose
         await self.rig.ptu.move_to(here.pan + msg.pan, here.tilt + msg.tilt, wait=False)
         self.rig.mark_moving()
         return Ack("OK", f"jogging by {msg.pan:+.3f}, {msg.tilt:+.3f}")
 
-    async def _look(self, msg: PtuLook, src: str) -> Message:
+    async def _ptu_look(self, msg: PtuLook, src: str) -> Message:
         self._idle("ptu/look")
         if msg.station:
             geometry = await asyncio.to_thread(self.survey.geometry_of, msg.station)
@@ -183,13 +172,13 @@ class Commands:
         self.rig.mark_moving()
         return Ack("OK", f"looking at pan {pan:.3f}, tilt {tilt:.3f}")
 
-    async def _home(self, msg: PtuHome, src: str) -> Message:
+    async def _ptu_home(self, msg: PtuHome, src: str) -> Message:
         self._idle("ptu/home")
         await self.rig.ptu.move_to(0.0, 0.0, wait=False)
         self.rig.mark_moving()
         return Ack("OK", "moving to pan 0, tilt 0")
 
-    async def _halt(self, msg: PtuHalt, src: str) -> Message:
+    async def _ptu_halt(self, msg: PtuHalt, src: str) -> Message:
         cancelled = await self.survey.cancel(f"halted by {src or 'a client'}")
         await self.rig.ptu.halt()
         return Ack("OK", "halted" + ("; the survey was cancelled" if cancelled else ""))
@@ -203,10 +192,10 @@ class Commands:
             return Ack("REJECTED", "no survey is running")
         return Ack("OK", "survey cancelled; the station is marked incomplete")
 
-    async def _choose(self, msg: ChooseTarget, src: str) -> Message:
+    async def _target_choose(self, msg: ChooseTarget, src: str) -> Message:
         return Ack("OK", await self.survey.choose(msg, src))
 
-    async def _status(self, msg: SurveyStatus, src: str) -> Message:
+    async def _survey_status(self, msg: SurveyStatus, src: str) -> Message:
         s = self.survey
         return Status(
             s.state,
@@ -220,7 +209,7 @@ class Commands:
 
     # -- control -----------------------------------------------------------------------
 
-    async def _take(self, msg: TakeControl, src: str) -> Message:
+    async def _control_take(self, msg: TakeControl, src: str) -> Message:
         if msg.client not in ("", src):
             raise ValueError(f"{src} cannot take control for {msg.client}")
         previous = self.rig.control.take(src)
@@ -230,7 +219,7 @@ class Commands:
             self._announce("info", f"{src} took control")
         return Ack("OK", f"{src} holds control" + (f" (was {previous})" if previous else ""))
 
-    async def _release(self, msg: ReleaseControl, src: str) -> Message:
+    async def _control_release(self, msg: ReleaseControl, src: str) -> Message:
         if msg.client not in ("", src):
             raise ValueError(f"{src} cannot release control for {msg.client}")
         if not self.rig.control.release(src):
@@ -240,12 +229,12 @@ class Commands:
 
     # -- archive and hello -------------------------------------------------------------
 
-    async def _list(self, msg: ArchiveList, src: str) -> Message:
+    async def _archive_list(self, msg: ArchiveList, src: str) -> Message:
         if not msg.session:
             return ArchiveListing("", tuple(self.archive.sessions()))
         return ArchiveListing(msg.session, tuple(self.archive.products(msg.session)))
 
-    async def _get(self, msg: ArchiveGet, src: str) -> Message:
+    async def _archive_get(self, msg: ArchiveGet, src: str) -> Message:
         data = await asyncio.to_thread(self.archive.read, msg.session, msg.product, self._max_reply)
         return ArchiveData(msg.session, msg.product, data)
 

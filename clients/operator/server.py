@@ -20,26 +20,16 @@ import mimetypes
 import struct
 import time
 from collections import OrderedDict
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from aiohttp import WSMsgType, web
 
 from protocol.messages import (
+    REQUESTS,
+    Ack,
     ArchiveGet,
     ArchiveList,
-    ChooseTarget,
-    PtuGoto,
-    PtuHalt,
-    PtuHome,
-    PtuJog,
-    PtuLook,
-    ReleaseControl,
-    Request,
-    SurveyCancel,
-    SurveyStart,
-    TakeControl,
 )
 
 from ..rigclient import LiveFrame, RigClient, RigError, RigRefusedError
@@ -72,20 +62,6 @@ class Operator:
         self._frames: Any = None  # the zenoh subscriber while a page is open
         self._cache: OrderedDict[str, bytes] = OrderedDict()
         self._cached = 0
-        self._requests: dict[str, Callable[[dict], Request]] = {
-            "halt": lambda b: PtuHalt(),
-            "home": lambda b: PtuHome(),
-            "goto": lambda b: PtuGoto(b["pan"], b["tilt"]),
-            "jog": lambda b: PtuJog(b["pan"], b["tilt"]),
-            "look": lambda b: PtuLook(
-                b["u"], b["v"], b.get("station", ""), b.get("pan"), b.get("tilt")
-            ),
-            "survey": lambda b: SurveyStart(),
-            "cancel": lambda b: SurveyCancel(),
-            "choose": lambda b: ChooseTarget(b["station"], b["rank"]),
-            "take": lambda b: TakeControl(),
-            "release": lambda b: ReleaseControl(),
-        }
 
     def app(self) -> web.Application:
         app = web.Application(client_max_size=1 << 16)
@@ -95,7 +71,7 @@ class Operator:
                 web.get("/", self._index, name=INDEX),
                 web.static("/static", STATIC, name=ASSETS),
                 web.get("/ws", self._socket),
-                web.post("/api/{command}", self._command),
+                web.post("/api/{verb:.+}", self._command),
                 web.get("/api/archive", self._archive),
                 web.get("/api/archive/{session}", self._archive),
                 web.get("/archive/{session}/{product:.+}", self._product),
@@ -187,24 +163,26 @@ class Operator:
     # -- commands ------------------------------------------------------------------------
 
     async def _command(self, request: web.Request) -> web.Response:
-        name = request.match_info["command"]
-        build = self._requests.get(name)
-        if build is None:
-            return web.json_response({"ok": False, "error": f"no command {name!r}"}, status=404)
+        """``POST /api/<verb>`` with the request's fields as a JSON object: every command the
+        rig answers with an ack (protocol.messages.REQUESTS), checked by its own class."""
+        verb = request.match_info["verb"]
+        kind = REQUESTS.get(verb)
+        if kind is None or kind.REPLY is not Ack:
+            return web.json_response({"ok": False, "error": f"no command {verb!r}"}, status=404)
         try:
             body = await request.json() if request.can_read_body else {}
             if not isinstance(body, dict):
                 raise ValueError("the body must be a JSON object")
-            msg = build(body)
-        except (ValueError, KeyError, TypeError) as exc:
-            self.watch.note("refused", f"{name}: bad request: {exc}")
+            msg = kind.from_body(body)
+        except ValueError as exc:  # bad JSON, a wrong type, a missing field, out of range
+            self.watch.note("refused", f"{verb}: bad request: {exc}")
             return web.json_response(
                 {"ok": False, "result": "ERROR", "detail": f"bad request: {exc}"}
             )
         outcome = await self.watch.act(
-            name,
+            verb,
             lambda: self.client.command(msg),
-            motion=name not in ("halt", "take", "release"),
+            motion=kind.MOVES,
             take_hint="press Take to take it over",
         )
         return web.json_response(

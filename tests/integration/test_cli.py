@@ -94,3 +94,18 @@ async def test_an_absent_rig_is_reported_as_unreachable(router: str) -> None:
     assert code == 3 and "nobody" in report["error"] and "not on the bus" in err
     code, report, _ = await cyborg("tcp/127.0.0.1:1", "status")
     assert code == 3 and "cannot reach tcp/127.0.0.1:1" in report["error"]
+
+
+async def test_call_sends_any_command_by_its_verb(router: str, daemon) -> None:
+    """``cyborg call`` derives from the protocol's registry: every verb, typed replies, the
+    request class's own checks, control taken for motion."""
+    code, hello, _ = await cyborg(router, "call", "hello", '{"major": 2, "minor": 0}')
+    assert code == 0 and hello["kind"] == "hello" and hello["rig"] == "itest"
+    code, moved, _ = await cyborg(router, "call", "ptu/goto", '{"pan": 3, "tilt": -1}')
+    assert code == 0 and moved["result"] == "OK"
+    code, status, _ = await cyborg(router, "call", "survey/status")
+    assert code == 0 and status["kind"] == "status" and status["controller"] == "script"
+    code, bad, _ = await cyborg(router, "call", "ptu/goto", '{"pan": "ten", "tilt": 0}')
+    assert code == 2 and "expected a number" in bad["error"]
+    code, bad, _ = await cyborg(router, "call", "ptu/goto", "[1, 2]")
+    assert code == 2 and "JSON object" in bad["error"]

@@ -83,10 +83,10 @@ async def test_operator_page_surveys_and_repoints(
     await _drain(states)
     await asyncio.to_thread(browser.click, "#mosaic", dx, dy)
     reply = await wait(
-        "document.getElementById('reply').textContent.startsWith('look') && "
+        "document.getElementById('reply').textContent.startsWith('ptu/look') && "
         "document.getElementById('reply').textContent"
     )
-    assert reply.startswith("look: looking at"), reply
+    assert reply.startswith("ptu/look: looking at"), reply
     await asyncio.sleep(0.3)
     here = await _still(states)
     deg_per_css_px = 90.0 / box[0]  # 3 tiles of 30 deg across the image
@@ -108,7 +108,7 @@ async def test_operator_page_surveys_and_repoints(
 
     # Halt from the page; the archive lists the session.
     await asyncio.to_thread(browser.click, "#halt")
-    await wait("document.getElementById('reply').textContent.startsWith('halt: halted')")
+    await wait("document.getElementById('reply').textContent.startsWith('ptu/halt: halted')")
     session = result["station"].split("/")[0]
     await asyncio.to_thread(browser.click, "#refresh")
     await wait(f"document.getElementById('sessions').textContent.includes('{session}')")
@@ -122,7 +122,7 @@ async def test_operator_refuses_plainly(
     await other_client.wait_alive()
     await other_client.command(TakeControl())
     post = (
-        "return fetch('/api/goto', {method: 'POST', body: arguments[0], headers: "
+        "return fetch('/api/ptu/goto', {method: 'POST', body: arguments[0], headers: "
         "{'content-type': 'application/json'}}).then(r => r.json());"
     )
     reply = await asyncio.to_thread(browser.js, post, '{"pan": 1, "tilt": 1}')

@@ -107,7 +107,7 @@ async def test_strangers_without_the_secret_get_nothing(
     await client.wait_alive()
     before = await _pose(client)
     for cookie in ({}, {"Cookie": f"cyborg_operator_{console.port}=wrong"}):
-        async with http.post(f"{console.base}/api/goto", json=GOTO, headers=cookie) as r:
+        async with http.post(f"{console.base}/api/ptu/goto", json=GOTO, headers=cookie) as r:
             assert r.status == 401 and (await r.json())["ok"] is False
         for path in ("/api/archive", "/api/archive/s1", "/archive/s1/st01/mosaic.png"):
             async with http.get(console.base + path, headers=cookie) as r:
@@ -132,7 +132,7 @@ async def test_cross_site_requests_and_rebinding_are_refused(
     before = await _pose(client)
     cookie = await _sign_in(http, console)
     sent = f"Cookie: {cookie['Cookie']}"
-    api = f"{console.base}/api/goto"
+    api = f"{console.base}/api/ptu/goto"
     own = {**cookie, "Origin": console.base}
 
     # A form or a simple fetch() can only send text/plain (or form types), never JSON.
@@ -158,7 +158,7 @@ async def test_cross_site_requests_and_rebinding_are_refused(
         assert status == 403, path
     status, _ = await _raw(
         console.port,
-        "POST /api/goto HTTP/1.1",
+        "POST /api/ptu/goto HTTP/1.1",
         rebound,
         sent,
         "Content-Type: application/json",
@@ -170,7 +170,7 @@ async def test_cross_site_requests_and_rebinding_are_refused(
     assert after.controller == "" and (after.pan, after.tilt) == (before.pan, before.tilt)
 
     # The same requests with the console's own Host and Origin work.
-    async with http.post(f"{console.base}/api/halt", json={}, headers=own) as r:
+    async with http.post(f"{console.base}/api/ptu/halt", json={}, headers=own) as r:
         assert r.status == 200 and (await r.json())["ok"] is True
     for host in (console.host, f"localhost:{console.port}"):
         status, page = await _raw(console.port, "GET / HTTP/1.1", f"Host: {host}", sent)
@@ -241,7 +241,7 @@ HOSTILE = """<!doctype html><title>free kittens</title>
 <input name='{"pan": 20, "tilt": 10, "x": "' value='"}'></form>
 <script>
 const C = new URLSearchParams(location.search).get("console");
-document.getElementById("csrf").action = C + "/api/goto";
+document.getElementById("csrf").action = C + "/api/ptu/goto";
 const tried = {};
 const attempt = async (name, f) => {
   try { tried[name] = "got " + (await f()); } catch (e) { tried[name] = "failed: " + e; }
@@ -250,9 +250,9 @@ const simple = { method: "POST", mode: "no-cors", credentials: "include" };
 const json = { method: "POST", credentials: "include",
                headers: { "content-type": "application/json" } };
 const tries = {  // each would move the head (or take control) if the console obeyed
-  take: () => fetch(C + "/api/take", { ...simple, body: "{}" }),
-  goto: () => fetch(C + "/api/goto", { ...simple, body: '{"pan": 20, "tilt": 10}' }),
-  json: () => fetch(C + "/api/goto", { ...json, body: '{"pan": 20, "tilt": 10}' }),
+  take: () => fetch(C + "/api/control/take", { ...simple, body: "{}" }),
+  goto: () => fetch(C + "/api/ptu/goto", { ...simple, body: '{"pan": 20, "tilt": 10}' }),
+  json: () => fetch(C + "/api/ptu/goto", { ...json, body: '{"pan": 20, "tilt": 10}' }),
   read: () => fetch(C + "/api/archive", { credentials: "include" }).then((r) => r.text()),
 };
 (async () => {
@@ -304,7 +304,7 @@ async def test_printed_url_opens_a_clean_console(
         "performance.getEntriesByType('resource').some((e) => e.name.endsWith('/api/archive'))"
     )
     await asyncio.to_thread(browser.click, "#halt")
-    await wait("document.getElementById('reply').textContent.startsWith('halt: halted')")
+    await wait("document.getElementById('reply').textContent.startsWith('ptu/halt: halted')")
     page = await asyncio.to_thread(
         browser.js,
         "return {href: location.href, cookie: document.cookie, loads: performance"
@@ -331,7 +331,7 @@ async def test_hostile_page_cannot_drive_the_rig(
     tried: dict[str, Any] = await asyncio.to_thread(browser.wait, "window.tried")
     # A form POST, the classic JSON CSRF: it navigates to the console's answer.
     await asyncio.to_thread(browser.js, "document.getElementById('csrf').submit();")
-    await asyncio.to_thread(browser.wait, f"location.href === '{console.base}/api/goto'")
+    await asyncio.to_thread(browser.wait, f"location.href === '{console.base}/api/ptu/goto'")
     answer = await asyncio.to_thread(browser.wait, "document.body && document.body.innerText")
 
     after = await _pose(client)
@@ -341,4 +341,4 @@ async def test_hostile_page_cannot_drive_the_rig(
     # (Cross-Origin-Resource-Policy), and the console's log shows they arrived and were refused.
     assert all(tried[name].startswith("failed") for name in (*TRIES, "socket")), tried
     log = console.log.read_text()
-    assert f"refused POST '/api/take': requests from {hostile.rstrip('/')} are refused" in log
+    assert f"refused POST '/api/control/take': requests from {hostile.rstrip('/')} are refused" in log

@@ -95,8 +95,8 @@ function showResult(r, chips) {
     tr.innerHTML = `<td>${p.rank}</td><td>${p.score.toFixed(2)}</td><td>${fmt(p.pan)}</td><td>${fmt(p.tilt)}</td><td class="why"></td>`;
     tr.querySelector(".why").textContent = p.why;
     const td = document.createElement("td");
-    td.append(button(`Choose ${p.rank}`, () => send("choose", { station: r.station, rank: p.rank })),
-              button("Look", () => send("goto", { pan: p.pan, tilt: p.tilt })));
+    td.append(button(`Choose ${p.rank}`, () => send("target/choose", { station: r.station, rank: p.rank })),
+              button("Look", () => send("ptu/goto", { pan: p.pan, tilt: p.tilt })));
     tr.append(td);
     return tr;
   }));
@@ -151,17 +151,19 @@ async function browse(session) {
 }
 
 window.addEventListener("DOMContentLoaded", () => {
-  for (const name of ["halt", "survey", "cancel", "home", "take", "release"]) $(name).onclick = () => send(name);
-  $("choose0").onclick = () => state && state.result && send("choose", { station: state.result.station, rank: 0 });
+  const buttons = { halt: "ptu/halt", survey: "survey/start", cancel: "survey/cancel", home: "ptu/home",
+                    take: "control/take", release: "control/release" };
+  for (const [id, verb] of Object.entries(buttons)) $(id).onclick = () => send(verb);
+  $("choose0").onclick = () => state && state.result && send("target/choose", { station: state.result.station, rank: 0 });
   $("layer").onchange = showLayer;
   $("refresh").onclick = () => browse("");
   $("live").addEventListener("click", (ev) => {
     window.cyborgClickAt = Date.now();
-    if (shown) send("look", { ...fraction(ev, $("live")), pan: shown.pan, tilt: shown.tilt });
+    if (shown) send("ptu/look", { ...fraction(ev, $("live")), pan: shown.pan, tilt: shown.tilt });
   });
   $("mosaic").addEventListener("click", (ev) => {
     window.cyborgClickAt = Date.now();
-    if (station) send("look", { ...fraction(ev, $("mosaic")), station });
+    if (station) send("ptu/look", { ...fraction(ev, $("mosaic")), station });
   });
   connect();
   browse("");
