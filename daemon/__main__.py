@@ -27,6 +27,8 @@ from .router import run_router
 from .vision.params import PROFILES, profile
 from .zenohlog import route_zenoh_logs
 
+_LOGGER = logging.getLogger(__name__)
+
 
 def _run_parser(sub: argparse._SubParsersAction) -> None:
     ap = sub.add_parser("run", help="serve the rig on the bus (the systemd service runs this)")
@@ -143,7 +145,7 @@ def _run_emulator(args: argparse.Namespace, parser: argparse.ArgumentParser) -> 
     except ValueError as exc:
         parser.error(str(exc))
     if not MODELS[args.model].verified:
-        logging.getLogger("cyborgd").warning(
+        _LOGGER.warning(
             "model %s: its numbers are inferred, not from a manual", args.model
         )
     server = PtyEmulatorServer(

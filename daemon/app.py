@@ -19,6 +19,7 @@ import os
 import signal
 import sys
 import time
+from collections.abc import Awaitable
 from typing import TextIO
 
 import cv2
@@ -39,7 +40,7 @@ from .worker import VisionWorker
 
 __all__ = ["run"]
 
-_LOGGER = logging.getLogger("cyborgd")
+_LOGGER = logging.getLogger(__name__)
 
 
 class _Service:
@@ -113,6 +114,19 @@ class _Service:
             await asyncio.sleep(interval)
 
 
+TEARDOWN_STEP_S = 8.0
+"""Longest wait for one step of the shutdown (a survey noticing its cancellation), so the
+head is halted and the archive closed well inside systemd's ``TimeoutStopSec=20``."""
+
+
+async def _bounded(step: Awaitable[object], what: str) -> None:
+    try:
+        async with asyncio.timeout(TEARDOWN_STEP_S):
+            await step
+    except TimeoutError:
+        _LOGGER.warning("stopping: %s did not finish in %.0f s; going on", what, TEARDOWN_STEP_S)
+
+
 async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
     """Serve until SIGTERM/SIGINT; returns the exit status. The ready line (JSON) goes to
     ``ready_stream`` (default: stdout)."""
@@ -134,9 +148,7 @@ async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
         _LOGGER.warning("no access list ([zenoh] users): every peer that connects may command")
     async with contextlib.AsyncExitStack() as stack:
         bus = stack.enter_context(Bus.open(cfg.zenoh, cfg.keys))
-        worker = VisionWorker()
-        worker.start()
-        stack.callback(worker.close)
+        worker = await stack.enter_async_context(VisionWorker())
         ptu = open_ptu(cfg.ptu)
         rig = Rig(ptu, lambda pose: open_camera(cfg.camera.url, pose=pose))
         camera = rig.camera
@@ -159,7 +171,7 @@ async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
                 event=service.event,
             ),
         )
-        stack.push_async_callback(survey.cancel, "the daemon is stopping")
+        stack.push_async_callback(_bounded, survey.cancel("the daemon is stopping"), "survey")
         commands = Commands(
             rig,
             survey,

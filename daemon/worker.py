@@ -19,7 +19,7 @@ import sys
 import traceback
 from collections.abc import Callable
 from multiprocessing.connection import Connection, wait
-from typing import Any
+from typing import Any, Self
 
 __all__ = ["VisionWorker", "WorkerCrashedError", "WorkerError"]
 
@@ -78,7 +78,8 @@ def _serve(conn: Connection, parent: int) -> None:
 
 
 class VisionWorker:
-    """One worker process; :meth:`call` runs a picklable function in it."""
+    """One worker process; :meth:`call` runs a picklable function in it. An async context
+    manager: started on entry, stopped on exit."""
 
     def __init__(self, on_restart: Callable[[str], None] | None = None) -> None:
         self._ctx = mp.get_context("spawn")
@@ -154,8 +155,16 @@ class VisionWorker:
         _LOGGER.debug("worker traceback:\n%s", reply[2])
         raise WorkerError(reply[1])
 
-    def close(self, timeout: float = 5.0) -> None:
-        """Close the pipe (the worker exits at its next read), then make sure it is gone."""
+    async def __aenter__(self) -> Self:
+        self.start()
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.aclose()
+
+    async def aclose(self, timeout: float = 5.0) -> None:
+        """Close the pipe (the worker exits at its next read), then make sure it is gone;
+        the waiting happens off the event loop, at most ``timeout`` twice."""
         self._closing = True
         proc = self._proc
         if proc is None:
@@ -164,8 +173,8 @@ class VisionWorker:
             asyncio.get_running_loop().remove_reader(proc.sentinel)
         if self._conn is not None:
             self._conn.close()
-        proc.join(timeout)
+        await asyncio.to_thread(proc.join, timeout)
         if proc.is_alive():
             proc.terminate()
-            proc.join(timeout)
+            await asyncio.to_thread(proc.join, timeout)
         self._proc = self._conn = None

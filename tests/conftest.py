@@ -1,7 +1,8 @@
-"""Shared fixtures: a seeded RNG, a guard against leaked threads, opt-in hardware."""
+"""Shared fixtures: a seeded RNG, guards against leaked threads and tasks, opt-in hardware."""
 
 from __future__ import annotations
 
+import asyncio
 import threading
 
 import numpy as np
@@ -15,11 +16,32 @@ def rng() -> np.random.Generator:
 
 @pytest.fixture(autouse=True)
 def no_leaked_threads():
-    """Fail a test that leaves non-daemon threads running (they hang the interpreter)."""
+    """Fail a test that leaves non-daemon threads running (they hang the interpreter).
+    The event loop's executor threads (``asyncio_N``) are joined when the loop closes,
+    which pytest-asyncio does after this check."""
     before = set(threading.enumerate())
     yield
-    leaked = [t for t in threading.enumerate() if t not in before and t.is_alive() and not t.daemon]
+    leaked = [
+        t
+        for t in threading.enumerate()
+        if t not in before and t.is_alive() and not t.daemon and not t.name.startswith("asyncio_")
+    ]
     assert not leaked, f"test leaked threads: {leaked}"
+
+
+@pytest.fixture(autouse=True)
+async def no_leaked_tasks():
+    """Fail a test that leaves asyncio tasks running once its fixtures are torn down: a
+    forgotten task is a loop nobody stops, in a test as in the daemon."""
+    yield
+    me = asyncio.current_task()
+    for _ in range(20):  # tasks that were just cancelled need a few turns of the loop
+        leaked = [t for t in asyncio.all_tasks() if t is not me and not t.done()]
+        if not leaked:
+            return
+        await asyncio.sleep(0.01)
+    names = sorted(t.get_name() for t in leaked)
+    pytest.fail(f"test leaked tasks: {names}", pytrace=False)
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:

@@ -40,19 +40,17 @@ class Recorder:
 async def engine(tmp_path: Path):
     ptu = open_ptu("emu://?time_scale=50")
     rig = Rig(ptu, lambda pose: open_camera("sim://outcrop?seed=3", pose=pose))
-    worker = VisionWorker()
-    worker.start()
-    await ptu.open()
-    rec = Recorder()
-    archive = Archive(tmp_path / "archive", "t")
-    archive.open()
-    survey = Survey(rig, worker, archive, SurveyConfig(), hfov=30.0, telemetry=rec.telemetry())
-    try:
-        yield survey, rec, archive
-    finally:
-        await survey.cancel("test over")
-        await ptu.close()
-        worker.close()
+    async with VisionWorker() as worker:
+        await ptu.open()
+        rec = Recorder()
+        archive = Archive(tmp_path / "archive", "t")
+        archive.open()
+        survey = Survey(rig, worker, archive, SurveyConfig(), hfov=30.0, telemetry=rec.telemetry())
+        try:
+            yield survey, rec, archive
+        finally:
+            await survey.cancel("test over")
+            await ptu.close()
 
 
 class DiskFull:
