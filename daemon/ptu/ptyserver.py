@@ -52,13 +52,17 @@ class Fault:
     data: bytes = b"\x00\xfe#%garbage~\r\n"
     seconds: float = 0.5
     seen: int = 0
+    fired: int = 0
+    """How often it struck: a fault test checks its fault really happened."""
 
     def fires(self, token: str) -> bool:
         if not token.upper().startswith(self.match.upper()):
             return False
         self.seen += 1
         k = self.seen - self.nth
-        return k >= 0 and (self.count == 0 or k < self.count)
+        strikes = k >= 0 and (self.count == 0 or k < self.count)
+        self.fired += strikes
+        return strikes
 
 
 def parse_fault(spec: str) -> Fault:
@@ -211,7 +215,7 @@ class PtyEmulatorServer:
         out = self.emulator.receive(delimiter)
         delay = wire
         for f in fired:
-            _LOGGER.debug("fault %s on %r", f.action, token)
+            _LOGGER.info("injected fault: %s on %r", f.action, token)
             if f.action == "garbage":
                 self._send(f.data)
             elif f.action == "drop":

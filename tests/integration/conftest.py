@@ -23,15 +23,16 @@ def router() -> Iterator[str]:
 
 @pytest.fixture
 async def start_daemon(router: str, tmp_path: Path) -> AsyncIterator:
-    """Factory: start cyborgd with optional [survey] settings; all stopped at teardown."""
+    """Factory: start cyborgd with optional [survey] settings (and archive folder); all
+    stopped at teardown."""
     daemons: list[Daemon] = []
 
-    async def start(ptu_query: str = "", **survey: object) -> Daemon:
+    async def start(ptu_query: str = "", archive: Path | None = None, **survey: object) -> Daemon:
         config = tmp_path / f"cyborgd{len(daemons)}.toml"
         config.write_text(
             simulated_config(
                 "itest",
-                tmp_path / "archive",
+                archive or tmp_path / "archive",
                 connect=[router],
                 time_scale=8,
                 ptu_query=ptu_query,

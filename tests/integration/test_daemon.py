@@ -6,6 +6,8 @@ import asyncio
 import json
 import os
 import signal
+import subprocess
+from collections.abc import Iterator
 from pathlib import Path
 
 import cv2
@@ -364,10 +366,53 @@ async def test_daemon_killed_mid_analysis_leaves_no_worker_and_an_incomplete_sta
     assert "BrokenPipe" not in daemon.log.read_text()
 
 
+@pytest.fixture
+def small_disk(tmp_path: Path) -> Iterator[Path]:
+    """A real 3 MiB file system (tmpfs): a few full-resolution tiles fill it."""
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    mounted = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=3m,mode=0755", "tmpfs", str(disk)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if mounted.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs here (needs root): {mounted.stderr.strip()}")
+    try:
+        yield disk
+    finally:
+        subprocess.run(["umount", "-l", str(disk)], check=False)
+
+
+async def test_a_full_disk_fails_the_station_and_loses_nothing_written(
+    start_daemon, client: RigClient, small_disk: Path
+) -> None:
+    daemon = await start_daemon(archive=small_disk / "archive")
+    await client.wait_alive()
+    progress = client.subscribe(client.keys.progress, SurveyProgress)
+    events = client.subscribe(client.keys.events, Event)
+    await client.command(TakeControl())
+    request = SurveyStart(rows=2, cols=8, downsample=1.0)  # 16 tiles of ~1 MB each
+    station = (await client.command(request)).detail
+    final = await _until(progress, station, {"failed", "done"})
+    assert final.stage == "failed"
+    async with asyncio.timeout(10):
+        while "No space left" not in (event := await events.get()).text:
+            pass
+    assert station in event.text
+    m = _check_consistent(small_disk / "archive", station)
+    assert m["status"] == "failed" and "No space left" in m["reason"]
+    assert 0 < len(m["files"]) < 16
+    # The daemon serves on, and says what went wrong.
+    status = await client.command(SurveyStatus())
+    assert "No space left" in status.last_error and daemon.proc.returncode is None
+
+
 async def test_garbage_on_the_serial_line_does_not_break_a_survey(
     start_daemon, client: RigClient
 ) -> None:
-    daemon = await start_daemon("&fault=garbage:PP:3&fault=garbage:TP:7&fault=garbage:TP:20")
+    daemon = await start_daemon("&fault=garbage:PP:3&fault=garbage:TP:7&fault=garbage:PP:6")
     await client.wait_alive()
     progress = client.subscribe(client.keys.progress, SurveyProgress)
     results = client.subscribe(client.keys.result, InterestResult)
@@ -375,6 +420,7 @@ async def test_garbage_on_the_serial_line_does_not_break_a_survey(
     result = await run_station(client, progress, results, SurveyStart(rows=1, cols=2))
     assert len(result.points) == 3
     assert await daemon.stop() == 0
+    assert daemon.log.read_text().count("injected fault: garbage") == 3  # they did strike
 
 
 async def test_commands_without_a_daemon_fail_clearly(client: RigClient) -> None:

@@ -341,4 +341,6 @@ async def test_hostile_page_cannot_drive_the_rig(
     # (Cross-Origin-Resource-Policy), and the console's log shows they arrived and were refused.
     assert all(tried[name].startswith("failed") for name in (*TRIES, "socket")), tried
     log = console.log.read_text()
-    assert f"refused POST '/api/control/take': requests from {hostile.rstrip('/')} are refused" in log
+    assert (
+        f"refused POST '/api/control/take': requests from {hostile.rstrip('/')} are refused" in log
+    )

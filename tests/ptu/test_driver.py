@@ -141,20 +141,24 @@ async def test_echo_and_verbose_switched_back_on(ptu: PtyPtu) -> None:
 
 async def test_garbage_and_banner_are_skipped(ptu: PtyPtu) -> None:
     await ptu.move_to(20.0, 5.0)
-    ptu.server.faults.append(Fault("garbage", "PP", count=0))
+    garbage = Fault("garbage", "PP", count=0)
+    ptu.server.faults.append(garbage)
     ptu.server.inject(BANNER)
     for _ in range(5):
         here = await ptu.position()
         assert here.pan_pos == ptu.server.emulator.pan.position
+    assert garbage.fired == 5
     ptu.server.inject(b"\xff\xfe" * 400 + b"\r\n~junk\r\n")
     assert (await ptu.position()).tilt_pos == ptu.server.emulator.tilt.position
 
 
 async def test_dropped_reply_times_out_then_resyncs(ptu: PtyPtu) -> None:
     ptu.command_timeout = 0.3
-    ptu.server.faults.append(Fault("drop", "PP"))
+    drop = Fault("drop", "PP")
+    ptu.server.faults.append(drop)
     with pytest.raises(PtuTimeoutError, match="no reply to PP"):
         await ptu.position()
+    assert drop.fired == 1
     assert ptu.resyncs == 1
     assert ptu.state is LinkState.READY
     here = await ptu.position()
@@ -163,11 +167,14 @@ async def test_dropped_reply_times_out_then_resyncs(ptu: PtyPtu) -> None:
 
 async def test_slow_replies(ptu: PtyPtu) -> None:
     ptu.command_timeout = 0.5
-    ptu.server.faults.append(Fault("delay", "TP", seconds=0.2))
+    slow, slower = Fault("delay", "TP", seconds=0.2), Fault("delay", "TP", seconds=0.6)
+    ptu.server.faults.append(slow)
     assert (await ptu.position()).tilt_pos == 0
-    ptu.server.faults.append(Fault("delay", "TP", seconds=0.6))
+    assert slow.fired == 1
+    ptu.server.faults.append(slower)
     with pytest.raises(PtuTimeoutError):
         await ptu.position()
+    assert slower.fired == 1
     await asyncio.sleep(0.3)  # the late reply arrives; it must not answer the next query
     await ptu.move_to(0.0, 10.0)
     assert (await ptu.position()).tilt_pos == ptu.server.emulator.tilt.position
@@ -190,10 +197,12 @@ async def test_hangup_mid_move_and_reconnect(ptu: PtyPtu) -> None:
 
 
 async def test_hangup_fault_as_data() -> None:
-    unit = PtyPtu(Ptu46Emulator(time_scale=20), baud=0, faults=[Fault("hangup", "A", seconds=0.3)])
+    hangup = Fault("hangup", "A", seconds=0.3)
+    unit = PtyPtu(Ptu46Emulator(time_scale=20), baud=0, faults=[hangup])
     async with unit:
         with pytest.raises(PtuConnectionError):
             await unit._do("A")
+        assert hangup.fired == 1
         await unit.wait_ready(10.0)
         assert (await unit.move_to(5.0, 5.0)).pan == pytest.approx(5.0, abs=0.026)
 
