@@ -14,6 +14,7 @@ from .keypad.app import run_keypad
 from .link import add_link_arguments, transport
 from .operator.main import add_arguments as add_operator_arguments
 from .operator.main import run_operator
+from .replay import run_replay
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -37,6 +38,17 @@ def main(argv: list[str] | None = None) -> int:
     operator.add_argument("--port", type=int, default=8080, help="its port (0: any free one)")
     add_operator_arguments(operator)
     operator.set_defaults(run=run_operator)
+    replay = sub.add_parser(
+        "replay", help="publish a recorded session (session.mcap) on the bus, at its pace"
+    )
+    replay.add_argument("session", help="a session folder of the archive, or its session.mcap")
+    add_link_arguments(replay, "replay")
+    replay.add_argument("--speed", type=float, default=1.0, help="x the recorded pace")
+    replay.add_argument("--as-rig", dest="rig_override", help="rig name (default: recorded)")
+    replay.add_argument(
+        "--listen", action="append", metavar="ENDPOINT", help="serve clients here, as a rig"
+    )
+    replay.set_defaults(run=run_replay)
     cli.register(sub)
     args = parser.parse_args(argv)
     if hasattr(args, "env_connect"):  # a bus client: refuse a bad name or link up front

@@ -83,6 +83,9 @@ async def _demo(out: Path, time_scale: float, seed: int) -> int:
         print(f"    overlay   {maps / 'overlay.png'}")
         print(f"    maps      {maps}/{{segmentation,uncommon}}_{{h,s,i}}.png, interest.png")
         print(f"    mosaic    {folder / 'mosaic.png'}; chips in {folder / 'chips'}/")
+    for session in sorted({result.station.split("/")[0] for result in stations}):
+        log = archive / session / "session.mcap"
+        print(f"session log {log}  (Foxglove opens it; cyborg replay {archive / session})")
     return code
 
 

@@ -145,9 +145,7 @@ def _run_emulator(args: argparse.Namespace, parser: argparse.ArgumentParser) -> 
     except ValueError as exc:
         parser.error(str(exc))
     if not MODELS[args.model].verified:
-        _LOGGER.warning(
-            "model %s: its numbers are inferred, not from a manual", args.model
-        )
+        _LOGGER.warning("model %s: its numbers are inferred, not from a manual", args.model)
     server = PtyEmulatorServer(
         emulator,
         link=args.link,

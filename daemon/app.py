@@ -17,6 +17,7 @@ import json
 import logging
 import os
 import signal
+import socket
 import sys
 import time
 from collections.abc import Awaitable
@@ -26,13 +27,16 @@ import cv2
 
 from protocol.envelope import MAX_MESSAGE
 from protocol.messages import Event, FrameHeader, Message, PtuState
+from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
+from . import __version__
 from .archive import Archive
 from .bus import Bus
 from .camera import CameraError, open_camera
 from .commands import Commands
 from .config import Config
 from .ptu import LinkState, PtuError, open_ptu
+from .record import Recorder
 from .rig import Rig
 from .sdnotify import Notifier
 from .survey import Survey, SurveyTelemetry
@@ -46,15 +50,21 @@ _LOGGER = logging.getLogger(__name__)
 class _Service:
     """The long-running tasks, sharing the rig and the bus."""
 
-    def __init__(self, cfg: Config, bus: Bus, rig: Rig) -> None:
-        self.cfg, self.bus, self.rig = cfg, bus, rig
+    def __init__(self, cfg: Config, bus: Bus, rig: Rig, recorder: Recorder | None) -> None:
+        self.cfg, self.bus, self.rig, self.recorder = cfg, bus, rig, recorder
 
     def event(self, level: str, text: str) -> None:
         getattr(_LOGGER, "error" if level == "error" else "info")("%s", text)
-        self.bus.publish(self.bus.keys.events, Event(level, text))
+        event = Event(level, text)
+        self.bus.publish(self.bus.keys.events, event)
+        if self.recorder is not None:
+            self.recorder.event(event)
 
-    def publish(self, key: str, msg: Message) -> None:
-        self.bus.publish(key, msg)
+    def publish(self, key: str, msg: Message, *, latest_wins: bool = False) -> None:
+        """Onto the bus, and into the session log."""
+        self.bus.publish(key, msg, latest_wins=latest_wins)
+        if self.recorder is not None:
+            self.recorder.message(msg)
 
     def _state(self) -> PtuState:
         p, ptu = self.rig.pose, self.rig.ptu
@@ -73,7 +83,7 @@ class _Service:
                 self.rig.note(fresh)
             except PtuError as exc:
                 _LOGGER.debug("state poll: %s", exc)
-            self.bus.publish(key, self._state(), latest_wins=True)
+            self.publish(key, self._state(), latest_wins=True)
             self.rig.changed.clear()
             with contextlib.suppress(TimeoutError):
                 async with asyncio.timeout(period):
@@ -89,7 +99,9 @@ class _Service:
         failures = 0
         while True:
             next_at = max(next_at + period, time.monotonic())
-            if self.bus.frame_wanted():
+            watched = self.bus.frame_wanted()
+            recorded = self.recorder is not None and self.recorder.frame_due()
+            if watched or recorded:
                 try:
                     frame = await self.rig.grab()
                     failures = 0
@@ -103,9 +115,11 @@ class _Service:
                 if ok:
                     h, w = frame.image.shape[:2]
                     pose = frame.pose or (None, None)
-                    self.bus.publish_frame(
-                        jpeg.tobytes(), FrameHeader(frame.seq, w, h, pose[0], pose[1])
-                    )
+                    header = FrameHeader(frame.seq, w, h, pose[0], pose[1])
+                    if watched:
+                        self.bus.publish_frame(jpeg.tobytes(), header)
+                    if recorded and self.recorder is not None:
+                        self.recorder.frame(jpeg.tobytes(), header)
             await asyncio.sleep(max(0.0, next_at - time.monotonic()))
 
     async def watchdog_loop(self, notifier: Notifier, interval: float) -> None:
@@ -155,7 +169,19 @@ async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
         await stack.enter_async_context(ptu)
         await stack.enter_async_context(camera)
         rig.note(await ptu.position())
-        service = _Service(cfg, bus, rig)
+        recorder = None
+        if cfg.record.enabled:
+            metadata = {
+                "rig": cfg.rig,
+                "build": __version__,
+                "protocol": f"{PROTOCOL_MAJOR}.{PROTOCOL_MINOR}",
+                "host": socket.gethostname(),
+                "camera": cfg.camera.url,
+                "ptu": cfg.ptu,
+            }
+            recorder = Recorder(archive.root, metadata, cfg.record.frames)
+            stack.push_async_callback(asyncio.to_thread, recorder.close)
+        service = _Service(cfg, bus, rig, recorder)
         worker.on_restart = lambda text: service.event("warning", text)
         hfov = camera.hfov or cfg.camera.hfov
         survey = Survey(

@@ -8,7 +8,6 @@ reaches the hardware. Motion needs control (``control/take``); ``ptu/halt`` alwa
 from __future__ import annotations
 
 import asyncio
-import importlib.metadata
 import logging
 from collections.abc import Awaitable, Callable
 from typing import Any
@@ -41,6 +40,7 @@ from protocol.messages import (
 )
 from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
+from . import __version__
 from .archive import Archive, ArchiveError
 from .ptu import PtuConnectionError, PtuError, PtuLimitError, PtuTimeoutError
 from .ptu.geometry import pixel_to_angles
@@ -52,7 +52,6 @@ __all__ = ["MOTION", "Commands"]
 
 _LOGGER = logging.getLogger(__name__)
 
-_BUILD = importlib.metadata.version("cyborg-astrobiologist")
 
 MOTION = frozenset(verb for verb, request in REQUESTS.items() if request.MOVES)
 """Commands that need control (``Request.MOVES``)."""
@@ -239,4 +238,4 @@ class Commands:
         return ArchiveData(msg.session, msg.product, data)
 
     async def _hello(self, msg: Hello, src: str) -> Message:
-        return Hello(PROTOCOL_MAJOR, PROTOCOL_MINOR, _BUILD, self.rig_name)
+        return Hello(PROTOCOL_MAJOR, PROTOCOL_MINOR, __version__, self.rig_name)

@@ -22,6 +22,7 @@ __all__ = [
     "Config",
     "ConfigError",
     "FramesConfig",
+    "RecordConfig",
     "SurveyConfig",
     "load",
     "validate",
@@ -44,6 +45,14 @@ class FramesConfig:
     rate: float = 10.0
     """Live frames per second on the bus; 0 turns the live view off."""
     jpeg_quality: int = 80
+
+
+@dataclass(frozen=True)
+class RecordConfig:
+    enabled: bool = True
+    """Record each session to ``<archive>/<session>/session.mcap`` (daemon.record)."""
+    frames: float = 1.0
+    """Live frames per second in the session log, watched or not; 0: none."""
 
 
 @dataclass(frozen=True)
@@ -71,6 +80,7 @@ class Config:
     zenoh: Transport = field(default_factory=lambda: Transport(listen=("tcp/127.0.0.1:7447",)))
     frames: FramesConfig = field(default_factory=FramesConfig)
     survey: SurveyConfig = field(default_factory=SurveyConfig)
+    record: RecordConfig = field(default_factory=RecordConfig)
     state_rate: float = 10.0
     """PTU state messages per second (plus one on every change of motion)."""
 
@@ -127,6 +137,7 @@ def validate(cfg: Config) -> Config:
     checks = [
         (0 < cfg.camera.hfov < 180, "camera.hfov must be in (0, 180) degrees"),
         (0 <= cfg.frames.rate <= 60, "frames.rate must be 0..60 per second"),
+        (0 <= cfg.record.frames <= 30, "record.frames must be 0..30 per second"),
         (1 <= cfg.frames.jpeg_quality <= 100, "frames.jpeg_quality must be 1..100"),
         (1 <= s.rows <= 16 and 1 <= s.cols <= 32, "survey.rows 1..16 and survey.cols 1..32"),
         (1 <= s.downsample <= 16, "survey.downsample must be 1..16"),
@@ -166,7 +177,12 @@ def load(path: Path | None = None, **overrides: Any) -> Config:
             raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
         except tomllib.TOMLDecodeError as exc:
             raise ConfigError(f"{path}: not valid TOML: {exc}") from None
-    sections = {"camera": CameraConfig, "frames": FramesConfig, "survey": SurveyConfig}
+    sections = {
+        "camera": CameraConfig,
+        "frames": FramesConfig,
+        "survey": SurveyConfig,
+        "record": RecordConfig,
+    }
     top = {f.name for f in fields(Config)}
     unknown = sorted(set(data) - top)
     if unknown:

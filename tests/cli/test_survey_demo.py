@@ -32,6 +32,8 @@ def test_cyborg_demo_runs_three_stations(tmp_path: Path) -> None:
         assert doc["status"] == "complete" and doc["choice"]["rank"] == 1
         assert (m.parent / "analysis" / "overlay.png").is_file()
         assert str(m.parent / "analysis" / "overlay.png") in proc.stdout
+    (log,) = (out / "archive").glob("*/session.mcap")  # one session: the whole approach
+    assert f"session log {log}" in proc.stdout
 
 
 @pytest.mark.skipif(shutil.which("systemd-analyze") is None, reason="no systemd-analyze here")

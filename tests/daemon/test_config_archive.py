@@ -68,6 +68,8 @@ approach = [300, 60, 10]
         ("[zenoh]\nlisten = ['tls/0.0.0.0:7447']", "need tls_ca"),
         ("[zenoh]\nusers = 'nope.toml'", "zenoh.users"),
         ("[zenoh]\naccess = {}", "unknown key(s) in [zenoh]: access"),
+        ("[record]\nframes = 100", "record.frames must be 0..30"),
+        ("[record]\nenable = true", "unknown key(s) in [record]: enable"),
     ],
 )
 def test_config_errors_name_the_key(tmp_path: Path, text: str, message: str) -> None:

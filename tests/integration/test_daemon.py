@@ -6,8 +6,6 @@ import asyncio
 import json
 import os
 import signal
-import subprocess
-from collections.abc import Iterator
 from pathlib import Path
 
 import cv2
@@ -364,25 +362,6 @@ async def test_daemon_killed_mid_analysis_leaves_no_worker_and_an_incomplete_sta
     m = _check_consistent(archive, station)  # no .analysis.partial left either
     assert m["status"] == "incomplete"
     assert "BrokenPipe" not in daemon.log.read_text()
-
-
-@pytest.fixture
-def small_disk(tmp_path: Path) -> Iterator[Path]:
-    """A real 3 MiB file system (tmpfs): a few full-resolution tiles fill it."""
-    disk = tmp_path / "disk"
-    disk.mkdir()
-    mounted = subprocess.run(
-        ["mount", "-t", "tmpfs", "-o", "size=3m,mode=0755", "tmpfs", str(disk)],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    if mounted.returncode != 0:
-        pytest.skip(f"cannot mount a small tmpfs here (needs root): {mounted.stderr.strip()}")
-    try:
-        yield disk
-    finally:
-        subprocess.run(["umount", "-l", str(disk)], check=False)
 
 
 async def test_a_full_disk_fails_the_station_and_loses_nothing_written(

@@ -1,0 +1,148 @@
+"""The session log (``session.mcap``) written by a real daemon, read back with the mcap
+library's own stream reader, checked against Foxglove's JSON schemas (vendored in
+``protocol/foxglove``, checked here by a small walker of their ``required`` and ``type``
+keys), and replayed onto the bus for the keypad's view."""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import json
+import signal
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from clients.replay import read_log, replay
+from clients.rigclient import RigClient, run_station
+from clients.watch import RigWatch
+from protocol import recording as rec
+from protocol.messages import Chip, InterestResult, SurveyProgress, SurveyStart, TakeControl
+from protocol.transport import Transport
+
+pytestmark = pytest.mark.timeout(180)
+
+_TYPES = {
+    "object": dict,
+    "array": list,
+    "string": str,
+    "integer": int,
+    "number": (int, float),
+    "boolean": bool,
+}
+
+
+def _valid(doc: Any, schema: dict, where: str = "") -> None:
+    """The parts of JSON Schema Foxglove's schemas use: type, required, properties, items."""
+    kind = schema.get("type")
+    if kind:
+        assert isinstance(doc, _TYPES[kind]) and not (
+            kind in ("integer", "number") and isinstance(doc, bool)
+        ), f"{where}: {doc!r} is not {kind}"
+    if isinstance(doc, dict):
+        for name in schema.get("required", []):
+            assert name in doc, f"{where}: missing {name}"
+        for name, sub in schema.get("properties", {}).items():
+            if name in doc:
+                _valid(doc[name], sub, f"{where}.{name}")
+    if isinstance(doc, list) and "items" in schema:
+        for i, item in enumerate(doc):
+            _valid(item, schema["items"], f"{where}[{i}]")
+
+
+async def _surveyed(start_daemon, client: RigClient) -> tuple[Path, InterestResult, list[Chip]]:
+    """One station through a real daemon, then SIGTERM; returns the session folder, the
+    result and the chips as the bus delivered them."""
+    daemon = await start_daemon()
+    await client.wait_alive()
+    progress = client.subscribe(client.keys.progress, SurveyProgress)
+    results = client.subscribe(client.keys.result, InterestResult)
+    chips = client.subscribe(client.keys.chip, Chip)
+    await client.command(TakeControl())
+    result = await run_station(client, progress, results, SurveyStart(rows=1, cols=2))
+    await asyncio.sleep(0.5)
+    assert await daemon.stop() == 0
+    got = [chips.get_nowait() for _ in range(chips.qsize())]
+    session = Path(daemon.ready["archive"]) / result.station.split("/")[0]
+    return session, result, got
+
+
+async def test_the_session_log_holds_the_station(start_daemon, client: RigClient) -> None:
+    session, result, chips = await _surveyed(start_daemon, client)
+    metadata, messages = read_log(session / "session.mcap")
+    assert metadata["session"]["rig"] == "itest" and metadata["session"]["protocol"] == "2.0"
+    counts = Counter(m.topic for m in messages)
+    assert counts[rec.TOPICS["survey.result"]] == 1
+    assert counts[rec.MOSAIC] == counts[rec.ANNOTATIONS] == 1
+    assert counts[rec.TOPICS["survey.chip"]] == counts["/survey/chip/image"] == 3
+    assert counts[rec.TOPICS["ptu.state"]] == counts[rec.TF] > 0
+    assert counts[rec.TOPICS["survey.progress"]] >= 3 and counts[rec.LOG] >= 1
+    assert counts[rec.TOPICS["cam.frame"]] == counts["/camera/live"] > 0  # 1 fps, unwatched
+    times = [m.log_time for m in messages]
+    assert times == sorted(times)
+    # Every Foxglove message is valid against its schema.
+    for m in messages:
+        if m.schema.startswith("foxglove."):
+            _valid(json.loads(m.data), json.loads(rec.foxglove_schema(m.schema[9:])), m.topic)
+    # Images are byte-identical: the mosaic with the archive's, the chips with the bus's.
+    (mosaic,) = [m for m in messages if m.topic == rec.MOSAIC]
+    png = base64.b64decode(json.loads(mosaic.data)["data"])
+    assert png == (session.parent / result.station / "mosaic.png").read_bytes()
+    images = [
+        base64.b64decode(json.loads(m.data)["data"])
+        for m in messages
+        if m.topic == "/survey/chip/image"
+    ]
+    assert sorted(images) == sorted(c.jpeg for c in chips)
+    # The rings are on the mosaic's timestamp, at the points.
+    (notes,) = [json.loads(m.data) for m in messages if m.topic == rec.ANNOTATIONS]
+    stamp = json.loads(mosaic.data)["timestamp"]
+    assert all(c["timestamp"] == stamp for c in notes["circles"])
+    centres = [(c["position"]["x"], c["position"]["y"]) for c in notes["circles"]]
+    assert centres == [(p.x + 0.5, p.y + 0.5) for p in result.points]
+
+
+async def test_replay_drives_the_keypad_view_to_the_recorded_result(
+    start_daemon, client: RigClient, router: str
+) -> None:
+    session, result, _ = await _surveyed(start_daemon, client)
+    link = Transport("client", connect=(router,))
+    with RigClient.open(link, "replayed", "viewer") as viewer:
+        watch = RigWatch(viewer)
+        following = asyncio.create_task(watch.run())
+        try:
+            await asyncio.sleep(0.5)
+            count = await replay(session / "session.mcap", link, "replayed", speed=20.0)
+            assert count > 0
+            async with asyncio.timeout(10):
+                while watch.view.result is None or len(watch.view.chips) < 3:
+                    await asyncio.sleep(0.05)
+        finally:
+            following.cancel()
+            with pytest.raises(asyncio.CancelledError):
+                await following
+    assert watch.view.result == result
+    assert {c.rank for c in watch.view.chips.values()} == {1, 2, 3}
+    assert watch.view.progress is not None and watch.view.progress.stage == "done"
+
+
+async def test_a_killed_daemon_leaves_a_readable_log(start_daemon, client: RigClient) -> None:
+    """SIGKILL mid-session (a station done, the session open): the log reads up to its
+    last whole chunk, which by then holds the station's progress at least."""
+    daemon = await start_daemon()
+    await client.wait_alive()
+    progress = client.subscribe(client.keys.progress, SurveyProgress)
+    await client.command(TakeControl())
+    station = (await client.command(SurveyStart(rows=2, cols=3))).detail
+    async with asyncio.timeout(60):
+        while (await progress.get()).stage != "done":
+            pass
+    daemon.proc.send_signal(signal.SIGKILL)
+    await asyncio.wait_for(daemon.proc.wait(), 10)
+    log = Path(daemon.ready["archive"]) / station.split("/")[0] / "session.mcap"
+    metadata, messages = read_log(log)
+    assert metadata["session"]["rig"] == "itest"
+    assert messages and all(json.loads(m.data) is not None for m in messages)
+    assert {m.topic for m in messages} >= {rec.TOPICS["survey.progress"], rec.TOPICS["ptu.state"]}
