@@ -7,18 +7,34 @@ import sys
 from pathlib import Path
 
 from protocol.keys import check_client
+from protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 from . import cli
 from .demo import run_demo
 from .keypad.app import run_keypad
 from .link import add_link_arguments, transport
-from .operator.main import add_arguments as add_operator_arguments
-from .operator.main import run_operator
 from .replay import run_replay
+
+
+def _operator(args: argparse.Namespace) -> int:
+    """The console needs aiohttp (the ``operator`` extra); the rig and its keypad do not."""
+    try:
+        from .operator.main import run_operator  # noqa: PLC0415
+    except ModuleNotFoundError as exc:
+        print(
+            f"cyborg operator: {exc.name} is missing: pip install 'cyborg-astrobiologist[operator]'"
+        )
+        return 2
+    return run_operator(args)
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="cyborg", description=__doc__)
+    parser.add_argument(
+        "--version",
+        action="version",
+        version=f"%(prog)s {BUILD} (protocol {PROTOCOL_MAJOR}.{PROTOCOL_MINOR})",
+    )
     sub = parser.add_subparsers(dest="command", required=True)
     demo = sub.add_parser("demo", help="a simulated field day: daemon, emulator, three stations")
     demo.add_argument("--out", type=Path, default=Path("out/demo"))
@@ -36,8 +52,15 @@ def main(argv: list[str] | None = None) -> int:
     add_link_arguments(operator, "operator")
     operator.add_argument("--host", default="127.0.0.1", help="address the page listens on")
     operator.add_argument("--port", type=int, default=8080, help="its port (0: any free one)")
-    add_operator_arguments(operator)
-    operator.set_defaults(run=run_operator)
+    operator.add_argument(
+        "--public-host",
+        action="append",
+        default=[],
+        metavar="NAME[:PORT]",
+        help="a name browsers use to reach the console through a reverse proxy (repeatable "
+        "or comma-separated); requests naming any other host are refused",
+    )
+    operator.set_defaults(run=_operator)
     replay = sub.add_parser(
         "replay", help="publish a recorded session (session.mcap) on the bus, at its pace"
     )

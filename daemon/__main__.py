@@ -13,6 +13,7 @@ import cv2
 import zenoh
 
 from protocol.transport import MODES
+from protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 from .analyze import AnalyzeOptions, analyze_files
 from .app import run
@@ -159,6 +160,11 @@ def _run_emulator(args: argparse.Namespace, parser: argparse.ArgumentParser) -> 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="cyborgd", description=__doc__)
+    parser.add_argument(
+        "--version",
+        action="version",
+        version=f"%(prog)s {BUILD} (protocol {PROTOCOL_MAJOR}.{PROTOCOL_MINOR})",
+    )
     parser.add_argument("-v", "--verbose", action="store_true")
     sub = parser.add_subparsers(dest="command", required=True)
     _run_parser(sub)

@@ -27,9 +27,8 @@ import cv2
 
 from protocol.envelope import MAX_MESSAGE
 from protocol.messages import Event, FrameHeader, Message, PtuState
-from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
+from protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
 
-from . import __version__
 from .archive import Archive
 from .bus import Bus
 from .camera import CameraError, open_camera
@@ -173,7 +172,7 @@ async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
         if cfg.record.enabled:
             metadata = {
                 "rig": cfg.rig,
-                "build": __version__,
+                "build": BUILD,
                 "protocol": f"{PROTOCOL_MAJOR}.{PROTOCOL_MINOR}",
                 "host": socket.gethostname(),
                 "camera": cfg.camera.url,

@@ -38,9 +38,8 @@ from protocol.messages import (
     TakeControl,
     clip,
 )
-from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
+from protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
 
-from . import __version__
 from .archive import Archive, ArchiveError
 from .ptu import PtuConnectionError, PtuError, PtuLimitError, PtuTimeoutError
 from .ptu.geometry import pixel_to_angles
@@ -238,4 +237,4 @@ class Commands:
         return ArchiveData(msg.session, msg.product, data)
 
     async def _hello(self, msg: Hello, src: str) -> Message:
-        return Hello(PROTOCOL_MAJOR, PROTOCOL_MINOR, __version__, self.rig_name)
+        return Hello(PROTOCOL_MAJOR, PROTOCOL_MINOR, BUILD, self.rig_name)

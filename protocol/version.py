@@ -6,6 +6,11 @@ binds control to it; a 1.x peer is refused with "protocol 2 required".
 
 from __future__ import annotations
 
+import importlib.metadata
+
+BUILD = importlib.metadata.version("cyborg-astrobiologist")
+"""This installation's version (``cyborgd --version``, ``cyborg --version``, ``hello``)."""
+
 PROTOCOL_MAJOR = 2
 PROTOCOL_MINOR = 0
 

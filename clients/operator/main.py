@@ -14,19 +14,7 @@ from ..rigclient import RigClient
 from .guard import Guard, allowed_hosts
 from .server import Operator
 
-__all__ = ["add_arguments", "run_operator"]
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """The console's own flags, besides ``--host`` and ``--port``."""
-    parser.add_argument(
-        "--public-host",
-        action="append",
-        default=[],
-        metavar="NAME[:PORT]",
-        help="a name browsers use to reach the console through a reverse proxy (repeatable "
-        "or comma-separated); requests naming any other host are refused",
-    )
+__all__ = ["run_operator"]
 
 
 def _public_hosts(args: argparse.Namespace) -> list[str]:
