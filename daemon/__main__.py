@@ -123,6 +123,11 @@ def _emulator_parser(sub: argparse._SubParsersAction) -> None:
     )
     ap.add_argument("--banner", action="store_true", help="print a power-up banner first")
     ap.add_argument(
+        "--tcp",
+        metavar="HOST:PORT",
+        help="also serve the line over TCP, as a PTU-E46 or a terminal server (ptu = tcp://...)",
+    )
+    ap.add_argument(
         "--fault",
         action="append",
         default=[],
@@ -154,7 +159,13 @@ def _run_emulator(args: argparse.Namespace, parser: argparse.ArgumentParser) -> 
         banner=BANNER if args.banner else None,
         baud=args.baud,
     )
-    asyncio.run(serve(server))
+    tcp = None
+    if args.tcp:
+        host, _, port = args.tcp.rpartition(":")
+        if not host or not port.isdigit():
+            parser.error(f"--tcp {args.tcp!r}: want HOST:PORT, e.g. 127.0.0.1:4001")
+        tcp = (host, int(port))
+    asyncio.run(serve(server, tcp))
     return 0
 
 

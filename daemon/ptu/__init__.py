@@ -64,6 +64,8 @@ def open_ptu(url: str) -> PanTiltUnit:
 
     >>> type(open_ptu("emu://?time_scale=50")).__name__, open_ptu("/dev/ttyUSB0").port
     ('EmulatedPtu', '/dev/ttyUSB0')
+    >>> open_ptu("tcp://10.0.0.7:4000").port, open_ptu("rfc2217://ts:7001").port
+    ('socket://10.0.0.7:4000', 'rfc2217://ts:7001')
     """
     parts = urlsplit(url)
     query = parse_qs(parts.query)
@@ -72,6 +74,12 @@ def open_ptu(url: str) -> PanTiltUnit:
         if not port:
             raise ValueError(f"no serial port in {url!r}")
         return SerialPtu(port, int(query.get("baud", ["9600"])[-1]))
+    if parts.scheme == "tcp":  # a PTU-E46 or a terminal server: pyserial's socket://
+        if not parts.port:
+            raise ValueError(f"no host:port in {url!r}")
+        return SerialPtu(f"socket://{parts.netloc}")
+    if parts.scheme in ("socket", "rfc2217"):
+        return SerialPtu(url, int(query.get("baud", ["9600"])[-1]))
     if parts.scheme == "emu":
         return EmulatedPtu(_emulator(query))
     if parts.scheme == "pty":

@@ -12,9 +12,10 @@ from .emulator import Ptu46Emulator
 from .errors import PtuConnectionError, PtuTimeoutError
 from .ptyserver import Fault, PtyEmulatorServer
 from .serial import SerialPtu
+from .tcpserver import TcpLineServer
 from .wire import LineFramer, Reply, format_command, match_reply
 
-__all__ = ["EmulatedPtu", "PtyPtu"]
+__all__ = ["EmulatedPtu", "PtyPtu", "TcpPtu"]
 
 _POLL = 0.002
 
@@ -102,3 +103,25 @@ class PtyPtu(SerialPtu):
         finally:
             await self.server.close()
             self._dir.cleanup()
+
+
+class TcpPtu(PtyPtu):
+    """The emulator on a pty behind a TCP line server: the real driver over ``socket://``,
+    as a PTU-E46 or a terminal server would be reached."""
+
+    def __init__(self, emulator: Ptu46Emulator | None = None, **options: object) -> None:
+        super().__init__(emulator, **options)  # type: ignore[arg-type]
+        self.line = TcpLineServer(str(self.server.link))
+
+    async def open(self) -> None:
+        if not self.server.connected:
+            await self.server.start()
+        await self.line.start()
+        self.port = f"socket://127.0.0.1:{self.line.port}"
+        await super().open()
+
+    async def close(self) -> None:
+        try:
+            await super().close()
+        finally:
+            await self.line.close()

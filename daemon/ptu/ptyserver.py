@@ -264,12 +264,23 @@ class PtyEmulatorServer:
                 self._send(self.emulator.poll())
 
 
-async def serve(server: PtyEmulatorServer) -> None:
-    """Run ``server`` until SIGTERM or SIGINT; print the path to open first."""
+async def serve(server: PtyEmulatorServer, tcp: tuple[str, int] | None = None) -> None:
+    """Run ``server`` until SIGTERM or SIGINT; print the path to open first, and with
+    ``tcp`` (host, port) serve it there too and print that URL."""
+    from .tcpserver import TcpLineServer  # noqa: PLC0415 - only with --tcp
+
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()
     for sig in (signal.SIGTERM, signal.SIGINT):
         loop.add_signal_handler(sig, stop.set)
     async with server:
         print(server.path, flush=True)
-        await stop.wait()
+        if tcp is None:
+            await stop.wait()
+            return
+        line = await TcpLineServer(server.path, *tcp).start()
+        print(line.url, flush=True)
+        try:
+            await stop.wait()
+        finally:
+            await line.close()

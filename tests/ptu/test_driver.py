@@ -24,6 +24,7 @@ from daemon.ptu import (
     SerialPtu,
     open_ptu,
 )
+from daemon.ptu.emulated import TcpPtu
 from daemon.ptu.emulator import Ptu46Emulator
 from daemon.ptu.models import MODELS
 from daemon.ptu.ptyserver import Fault
@@ -31,9 +32,12 @@ from daemon.ptu.ptyserver import Fault
 pytestmark = pytest.mark.timeout(60)
 
 
-@pytest.fixture
-async def ptu():
-    unit = PtyPtu(Ptu46Emulator(time_scale=20), baud=0)
+@pytest.fixture(params=["pty", "tcp"])
+async def ptu(request):
+    """The emulator behind the real driver: on a pty, and behind a TCP line server as a
+    PTU-E46 or a terminal server is reached (``tcp://``, pyserial's ``socket://``)."""
+    kind = PtyPtu if request.param == "pty" else TcpPtu
+    unit = kind(Ptu46Emulator(time_scale=20), baud=0)
     await unit.open()
     yield unit
     await unit.close()
@@ -309,6 +313,8 @@ async def test_emulator_command_runs_as_a_process(tmp_path: Path) -> None:
         "20",
         "--link",
         str(link),
+        "--tcp",
+        "127.0.0.1:0",
         stdout=asyncio.subprocess.PIPE,
         cwd=Path(__file__).resolve().parents[2],
     )
@@ -319,6 +325,11 @@ async def test_emulator_command_runs_as_a_process(tmp_path: Path) -> None:
         async with SerialPtu(str(link)) as unit:
             here = await unit.move_to(45.0, -20.0)
             assert here.pan == pytest.approx(45.0, abs=0.026)
+        # The same line over TCP, named as the daemon's config names an Ethernet PTU.
+        url = (await asyncio.wait_for(proc.stdout.readline(), 20)).decode().strip()
+        assert url.startswith("tcp://127.0.0.1:")
+        async with open_ptu(url) as unit:
+            assert (await unit.position()).pan == pytest.approx(45.0, abs=0.026)
         proc.send_signal(signal.SIGTERM)
         assert await asyncio.wait_for(proc.wait(), 10) == 0
         assert not link.exists()
