@@ -38,6 +38,7 @@ from protocol.messages import (
 )
 from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
+from .export import point_rows, to_csv, to_geojson
 from .link import add_link_arguments, transport
 from .rigclient import (
     ControlHeldError,
@@ -159,6 +160,26 @@ async def _fetch(client: RigClient, args: argparse.Namespace) -> tuple[Report, s
     return report, f"wrote {out} ({len(data)} bytes)"
 
 
+async def _export(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
+    """Every interest point of a session, from its station manifests, as CSV or GeoJSON."""
+    listing = await client.command(ArchiveList(args.session))
+    manifests = []
+    for product in listing.items:
+        if product.count("/") == 1 and product.endswith("/manifest.json"):
+            reply = await client.command(ArchiveGet(args.session, product))
+            manifests.append(json.loads(reply.data))
+    rows = point_rows(manifests)
+    text = to_csv(rows) if args.format == "csv" else json.dumps(to_geojson(rows), indent=1)
+    out = Path(args.output or f"{args.session}.{args.format}")
+    report: Report = {"ok": True, "session": args.session, "points": len(rows)}
+    if args.output == "-":
+        sys.stdout.write(text)
+        return report, ""
+    out.write_text(text)
+    report["path"] = str(out.resolve())
+    return report, f"wrote {out} ({len(rows)} points of {len(manifests)} stations)"
+
+
 async def _list(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
     listing = await client.command(ArchiveList(args.session))
     return {"ok": True, **listing.to_body()}, "\n".join(listing.items)
@@ -266,6 +287,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     fetch.add_argument("session")
     fetch.add_argument("product", help="a path inside the session, e.g. st01-300m/mosaic.png")
     fetch.add_argument("-o", "--output", help="file to write ('-': stdout; default: its name)")
+    export = command("export", _export, "a session's interest points as CSV or GeoJSON")
+    export.add_argument("session")
+    export.add_argument("--format", choices=("csv", "geojson"), default="csv")
+    export.add_argument(
+        "-o", "--output", help="file to write ('-': stdout; default SESSION.FORMAT)"
+    )
     listing = command("list", _list, "archived sessions, or one session's products")
     listing.add_argument("session", nargs="?", default="")
     choose = command("choose", _choose, "choose a station's target: rank 1-3, or 0", True)

@@ -79,10 +79,11 @@ def simulated_config(
     frame_rate: float = 10.0,
     survey: dict[str, Any] | None = None,
     zenoh: dict[str, Any] | None = None,
+    sections: dict[str, dict[str, Any]] | None = None,
 ) -> str:
     """A ``cyborgd.toml`` for a simulated rig: the PTU-46 emulator on a pty behind the
     real serial driver, and the simulated camera on the generated cliff ``seed``; ``zenoh``
-    adds [zenoh] keys (TLS files, ``users``, ``insecure``)."""
+    adds [zenoh] keys (TLS files, ``users``, ``insecure``), ``sections`` whole tables."""
     mode = "client" if connect and not listen else "peer"
     links = {"mode": mode, "listen": list(listen), "connect": list(connect), **(zenoh or {})}
     lines = [
@@ -98,6 +99,8 @@ def simulated_config(
         "[survey]",
         *(f"{k} = {json.dumps(v)}" for k, v in (survey or {}).items()),
     ]
+    for name, table in (sections or {}).items():  # e.g. [site], [record]
+        lines += [f"[{name}]", *(f"{k} = {json.dumps(v)}" for k, v in table.items())]
     return "\n".join(lines) + "\n"
 
 

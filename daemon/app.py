@@ -38,6 +38,7 @@ from .ptu import LinkState, PtuError, open_ptu
 from .record import Recorder
 from .rig import Rig
 from .sdnotify import Notifier
+from .site import Gpsd, Orientation, where
 from .survey import Survey, SurveyTelemetry
 from .worker import VisionWorker
 
@@ -183,12 +184,15 @@ async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
         service = _Service(cfg, bus, rig, recorder)
         worker.on_restart = lambda text: service.event("warning", text)
         hfov = camera.hfov or cfg.camera.hfov
+        gpsd = Gpsd(cfg.site.gpsd) if cfg.site.gpsd else None
         survey = Survey(
             rig,
             worker,
             archive,
             cfg.survey,
             hfov=hfov,
+            orientation=Orientation(cfg.site.heading, cfg.site.level),
+            site=lambda: where(cfg.site, gpsd),
             telemetry=SurveyTelemetry(
                 progress=lambda m: service.publish(bus.keys.progress, m),
                 result=lambda m: service.publish(bus.keys.result, m),
@@ -227,6 +231,8 @@ async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
                 tg.create_task(service.state_loop(), name="cyborgd.ptu.state"),
                 tg.create_task(service.frame_loop(), name="cyborgd.camera.frames"),
             ]
+            if gpsd is not None:
+                tasks.append(tg.create_task(gpsd.run(), name="cyborgd.gps.read"))
             if notifier.watchdog_interval:
                 tasks.append(
                     tg.create_task(

@@ -15,6 +15,7 @@ from protocol.access import access_control, load_users
 from protocol.keys import Keys
 from protocol.transport import Transport
 
+from .site import SiteConfig
 from .vision.params import PROFILES
 
 __all__ = [
@@ -81,6 +82,7 @@ class Config:
     frames: FramesConfig = field(default_factory=FramesConfig)
     survey: SurveyConfig = field(default_factory=SurveyConfig)
     record: RecordConfig = field(default_factory=RecordConfig)
+    site: SiteConfig = field(default_factory=SiteConfig)
     state_rate: float = 10.0
     """PTU state messages per second (plus one on every change of motion)."""
 
@@ -110,7 +112,7 @@ def _coerce(name: str, value: Any, default: Any) -> Any:
         if not isinstance(value, bool):
             raise ConfigError(f"{name}: expected true or false")
         return value
-    if isinstance(default, float) or (default is None and isinstance(value, int | float)):
+    if isinstance(default, float) or default is None:  # None: an optional number
         if not isinstance(value, int | float) or isinstance(value, bool):
             raise ConfigError(f"{name}: expected a number")
         return float(value)
@@ -127,6 +129,10 @@ def _coerce(name: str, value: Any, default: Any) -> Any:
     return value
 
 
+def _in(value: float | None, lo: float, hi: float) -> bool:
+    return value is None or lo <= value <= hi
+
+
 def validate(cfg: Config) -> Config:
     """Check a whole configuration (after any CLI overrides); ConfigError says what."""
     try:
@@ -138,6 +144,10 @@ def validate(cfg: Config) -> Config:
         (0 < cfg.camera.hfov < 180, "camera.hfov must be in (0, 180) degrees"),
         (0 <= cfg.frames.rate <= 60, "frames.rate must be 0..60 per second"),
         (0 <= cfg.record.frames <= 30, "record.frames must be 0..30 per second"),
+        (_in(cfg.site.latitude, -90, 90), "site.latitude must be -90..90 degrees"),
+        (_in(cfg.site.longitude, -180, 180), "site.longitude must be -180..180 degrees"),
+        (_in(cfg.site.heading, 0, 360), "site.heading must be 0..360 degrees from north"),
+        (-45 <= cfg.site.level <= 45, "site.level must be -45..45 degrees"),
         (1 <= cfg.frames.jpeg_quality <= 100, "frames.jpeg_quality must be 1..100"),
         (1 <= s.rows <= 16 and 1 <= s.cols <= 32, "survey.rows 1..16 and survey.cols 1..32"),
         (1 <= s.downsample <= 16, "survey.downsample must be 1..16"),
@@ -182,6 +192,7 @@ def load(path: Path | None = None, **overrides: Any) -> Config:
         "frames": FramesConfig,
         "survey": SurveyConfig,
         "record": RecordConfig,
+        "site": SiteConfig,
     }
     top = {f.name for f in fields(Config)}
     unknown = sorted(set(data) - top)

@@ -38,6 +38,7 @@ from .config import SurveyConfig
 from .ptu import PtuError, PtuLimitError, PtuPosition
 from .ptu.geometry import CameraModel, MosaicGeometry
 from .rig import Rig
+from .site import Orientation
 from .vision.params import PROFILES
 from .worker import VisionWorker, WorkerError
 
@@ -82,10 +83,16 @@ class Survey:
         *,
         hfov: float,
         telemetry: SurveyTelemetry,
+        orientation: Orientation | None = None,
+        site: Callable[[], dict[str, Any]] | None = None,
     ) -> None:
+        """``orientation`` turns pan/tilt into azimuth/elevation; ``site`` says where the
+        rig stands when a station starts (daemon.site.where)."""
         self.rig, self.worker, self.archive, self.cfg = rig, worker, archive, config
         self.hfov = hfov
         self.tel = telemetry
+        self.orientation = orientation or Orientation(None)
+        self.site = site or (lambda: {})
         self.state = "idle"
         self.station: Station | None = None
         self.last_error = ""
@@ -142,6 +149,7 @@ class Survey:
             ap.index,
             self.distance,
             plan=plan,
+            site=self.site(),
             requested_by=requested_by,
             aim={"pan": ap.aim[0], "tilt": ap.aim[1], "from": ap.aimed_from} if ap.aim else None,
             tiles=[],
@@ -399,6 +407,8 @@ class Survey:
                     round(pan, 4),
                     round(tilt, 4),
                     p["description"],
+                    self.orientation.azimuth(pan),
+                    self.orientation.elevation(tilt),
                 )
             )
         return points

@@ -193,6 +193,10 @@ class InterestPoint(Message):
     pan: float
     tilt: float
     why: str = ""
+    azimuth: float | None = None
+    """True azimuth (degrees from north) when the rig knows its heading (2.1)."""
+    elevation: float | None = None
+    """Degrees above the horizon, the head's level offset applied (2.1)."""
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,12 @@ async def start_daemon(router: str, tmp_path: Path) -> AsyncIterator:
     stopped at teardown."""
     daemons: list[Daemon] = []
 
-    async def start(ptu_query: str = "", archive: Path | None = None, **survey: object) -> Daemon:
+    async def start(
+        ptu_query: str = "",
+        archive: Path | None = None,
+        sections: dict | None = None,
+        **survey: object,
+    ) -> Daemon:
         config = tmp_path / f"cyborgd{len(daemons)}.toml"
         config.write_text(
             simulated_config(
@@ -37,6 +42,7 @@ async def start_daemon(router: str, tmp_path: Path) -> AsyncIterator:
                 time_scale=8,
                 ptu_query=ptu_query,
                 survey={"approach": [300, 60, 10], "simulate_approach": True, **survey},
+                sections=sections,
             )
         )
         daemon = await spawn(["--config", str(config)], tmp_path / "cyborgd.log")

@@ -21,6 +21,7 @@ from clients.watch import RigWatch
 from protocol import recording as rec
 from protocol.messages import Chip, InterestResult, SurveyProgress, SurveyStart, TakeControl
 from protocol.transport import Transport
+from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -72,7 +73,10 @@ async def _surveyed(start_daemon, client: RigClient) -> tuple[Path, InterestResu
 async def test_the_session_log_holds_the_station(start_daemon, client: RigClient) -> None:
     session, result, chips = await _surveyed(start_daemon, client)
     metadata, messages = read_log(session / "session.mcap")
-    assert metadata["session"]["rig"] == "itest" and metadata["session"]["protocol"] == "2.0"
+    assert (
+        metadata["session"]["rig"] == "itest"
+        and metadata["session"]["protocol"] == f"{PROTOCOL_MAJOR}.{PROTOCOL_MINOR}"
+    )
     counts = Counter(m.topic for m in messages)
     assert counts[rec.TOPICS["survey.result"]] == 1
     assert counts[rec.MOSAIC] == counts[rec.ANNOTATIONS] == 1
