@@ -104,6 +104,11 @@ class Browser:
         violations (``level`` SEVERE for the errors)."""
         return self._call("POST", "/se/log", {"type": "browser"})
 
+    def print_pdf(self) -> bytes:
+        """The page printed to A4 (WebDriver's print command), as PDF bytes."""
+        doc = self._call("POST", "/print", {"page": {"width": 21.0, "height": 29.7}})
+        return base64.b64decode(doc)
+
     def screenshot(self) -> bytes:
         return base64.b64decode(self._call("GET", "/screenshot"))
 

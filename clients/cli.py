@@ -180,6 +180,16 @@ async def _export(client: RigClient, args: argparse.Namespace) -> tuple[Report, 
     return report, f"wrote {out} ({len(rows)} points of {len(manifests)} stations)"
 
 
+async def _report(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
+    """The session's report page as the rig wrote it (self-contained: images embedded)."""
+    reply = await client.command(ArchiveGet(args.session, "report.html"))
+    out = Path(args.out) / f"report-{args.session}.html"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_bytes(reply.data)
+    report: Report = {"ok": True, "session": args.session, "path": str(out.resolve())}
+    return report, f"wrote {out}: open it in a browser, or print it (A4)"
+
+
 async def _list(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
     listing = await client.command(ArchiveList(args.session))
     return {"ok": True, **listing.to_body()}, "\n".join(listing.items)
@@ -293,6 +303,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     export.add_argument(
         "-o", "--output", help="file to write ('-': stdout; default SESSION.FORMAT)"
     )
+    report = command("report", _report, "a session's report page (HTML, prints to A4)")
+    report.add_argument("session")
+    report.add_argument("--out", default=".", help="folder to write it in (default: here)")
     listing = command("list", _list, "archived sessions, or one session's products")
     listing.add_argument("session", nargs="?", default="")
     choose = command("choose", _choose, "choose a station's target: rank 1-3, or 0", True)

@@ -37,6 +37,7 @@ from .camera import CameraError, Frame
 from .config import SurveyConfig
 from .ptu import PtuError, PtuLimitError, PtuPosition
 from .ptu.geometry import CameraModel, MosaicGeometry
+from .report import write_report
 from .rig import Rig
 from .site import Orientation
 from .vision.params import PROFILES
@@ -239,6 +240,7 @@ class Survey:
         ap = self._approach
         if msg.rank == 0:
             self.station.update(choice={"rank": 0, "by": by, "t": time.time()})
+            await self._report(self.station)
             ap.aim, ap.aimed_from = None, ""
             self.state = "idle"
             return f"no target chosen at {result.station}; next station at {self.distance:g} m"
@@ -254,6 +256,7 @@ class Survey:
                 "t": time.time(),
             }
         )
+        await self._report(self.station)
         self.state = "idle"
         if ap.leg + 1 >= len(self.cfg.approach):
             self._approach = _Approach()
@@ -268,6 +271,14 @@ class Survey:
             f"target {point.rank} chosen; next station at {self.distance:g} m aimed at "
             f"pan {point.pan:.2f}, tilt {point.tilt:.2f}"
         )
+
+    async def _report(self, station: Station) -> None:
+        """Rewrite the session's report (daemon.report); a report that cannot be written
+        (a full disk) is logged and costs the station nothing."""
+        try:
+            await asyncio.to_thread(write_report, station.folder.parent)
+        except (OSError, ValueError, cv2.error) as exc:
+            _LOGGER.warning("session report for %s not written: %s", station.name, exc)
 
     # -- the station -------------------------------------------------------------------
 
@@ -303,6 +314,7 @@ class Survey:
             self.tel.event(
                 "info", f"station {self.station_id} complete: {len(points)} interest points"
             )
+            await self._report(station)
         except asyncio.CancelledError as exc:
             reason = str(exc.args[0]) if exc.args else "cancelled"
             await self._abandon(station, "incomplete", reason, timing, t0)
@@ -328,6 +340,7 @@ class Survey:
             station.finish(status, reason)
         except OSError as exc:
             _LOGGER.error("station %s: cannot update the manifest: %s", station.name, exc)
+        await asyncio.shield(self._report(station))
         self._progress(status, 0, 0, None)
 
     async def _settle_and_grab(self, timing: dict[str, float]) -> tuple[PtuPosition, Frame]:
