@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo test bench bench-quality bench-real bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security lint clean
+.PHONY: demo rig test bench bench-quality bench-real bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security lint clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -18,6 +18,11 @@ $(STAMP): pyproject.toml | $(PY)
 
 demo: $(STAMP)
 	$(PY) -m clients demo --out $(OUT)/demo
+
+# A simulated rig on 127.0.0.1:7447 to try the clients with (Ctrl-C stops it):
+# `.venv/bin/cyborg keypad`, `.venv/bin/cyborg operator`, `.venv/bin/cyborg status`.
+rig: $(STAMP)
+	$(PY) -m daemon run --sim
 
 test: $(STAMP)
 	$(PY) -m ruff check .

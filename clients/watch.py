@@ -195,6 +195,9 @@ class RigWatch:
             v.ptu = msg
         elif isinstance(msg, Status):
             v.status = msg
+            waiting = msg.result
+            if waiting is not None and (v.result is None or v.result.station != waiting.station):
+                v.result, v.chips = waiting, {}  # opened mid-station: the points it awaits
         elif isinstance(msg, SurveyProgress):
             if v.progress is None or (v.progress.station, v.progress.stage) != (
                 msg.station,

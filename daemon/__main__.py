@@ -46,11 +46,28 @@ def _run_parser(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="allow clear-text endpoints beyond loopback (a lab bench, never the field)",
     )
+    ap.add_argument(
+        "--sim",
+        action="store_true",
+        help="a simulated rig to try the clients with: the PTU emulator on a pty, the "
+        "simulated camera on a generated cliff, the approach magnified, archive in "
+        "./out/rig (each overridable by the flags above)",
+    )
+
+
+SIM_PTU = "pty://?model=D46-17&time_scale=2"
+SIM_CAMERA = "sim://outcrop?seed=3&hfov=30"
 
 
 def _run_daemon(args: argparse.Namespace) -> int:
     try:
+        if args.sim:  # the flags still win over the simulation's defaults
+            args.ptu = args.ptu or SIM_PTU
+            args.camera = args.camera or SIM_CAMERA
+            args.archive = args.archive or Path("out/rig")
         cfg = load(args.config, rig=args.rig, ptu=args.ptu, archive=args.archive)
+        if args.sim:
+            cfg = replace(cfg, survey=replace(cfg.survey, simulate_approach=True))
         if args.camera:
             cfg = replace(cfg, camera=replace(cfg.camera, url=args.camera))
         z = cfg.zenoh

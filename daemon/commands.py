@@ -203,6 +203,7 @@ class Commands:
             self.rig.control.holder,
             self.worker.pid,
             s.last_error,
+            s.awaiting_result,
         )
 
     # -- control -----------------------------------------------------------------------

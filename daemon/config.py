@@ -70,6 +70,9 @@ class SurveyConfig:
     """Seconds to wait after motion stops before a grab (tripod vibration)."""
     speed: float | None = None
     """PTU slew speed (deg/s) during surveys; None keeps the unit's own setting."""
+    pan0: float = 0.0
+    """Centre of a survey nobody aimed (degrees), as the tripod was set up to face."""
+    tilt0: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 import struct
 import tempfile
@@ -59,11 +60,22 @@ def read_image(path: str | os.PathLike[str], max_pixels: int = MAX_PIXELS) -> np
     return img
 
 
+@functools.cache
+def _file_mode() -> int:
+    """What ``open()`` would give a new file: 0666 less the umask. A temporary file is
+    made 0600, which under systemd (user cyborg, UMask=0027) would keep the geologist's
+    own account out of the results; this makes them 0640, readable by group cyborg."""
+    mask = os.umask(0o022)  # read it (the only way before Linux's /proc Umask line)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 def write_atomic(path: Path, data: bytes) -> None:
     """Write a file so that readers see the old file or the whole new one, never a part."""
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
+        os.fchmod(fd, _file_mode())
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()

@@ -101,12 +101,18 @@ class Survey:
         self._approach = _Approach()
         self._result: InterestResult | None = None
         self._analysis_estimate = 1.0
+        self._last_centre: tuple[float, float] | None = None
 
     # -- commands ----------------------------------------------------------------------
 
     @property
     def running(self) -> bool:
         return self._task is not None and not self._task.done()
+
+    @property
+    def awaiting_result(self) -> InterestResult | None:
+        """The result a choice is awaited for, if one is."""
+        return self._result if self.state == "awaiting-choice" else None
 
     @property
     def distance(self) -> float:
@@ -126,6 +132,7 @@ class Survey:
             profile=c.profile if req.profile is None else req.profile,
         )
         geometry = self._plan(req)
+        self._last_centre = (geometry.pan0, geometry.tilt0)
         ap = self._approach
         if not ap.session:
             ap.session, ap.index = self.archive.new_session(), 0
@@ -173,9 +180,10 @@ class Survey:
         if req.profile not in PROFILES:
             raise ValueError(f"unknown profile {req.profile!r}; known: {', '.join(PROFILES)}")
         ap = self._approach
-        here = self.rig.pose
-        pan0 = req.pan0 if req.pan0 is not None else (ap.aim[0] if ap.aim else here.pan)
-        tilt0 = req.tilt0 if req.tilt0 is not None else (ap.aim[1] if ap.aim else here.tilt)
+        # The centre is always a decision: asked for, aimed at, surveyed before, or set up.
+        default = ap.aim or self._last_centre or (self.cfg.pan0, self.cfg.tilt0)
+        pan0 = req.pan0 if req.pan0 is not None else default[0]
+        tilt0 = req.tilt0 if req.tilt0 is not None else default[1]
         geometry = MosaicGeometry(
             self.live_camera(), req.rows, req.cols, pan0, tilt0, req.downsample
         )

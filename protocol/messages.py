@@ -255,6 +255,9 @@ class Status(Message):
     controller: str = ""
     worker_pid: int = 0
     last_error: str = ""
+    result: InterestResult | None = None
+    """The station's result while it awaits a choice (2.1): a client that starts then
+    shows the points without waiting for the next survey."""
 
 
 @dataclass(frozen=True)
@@ -363,9 +366,12 @@ class PtuHome(Request[Ack]):
 
 @dataclass(frozen=True)
 class SurveyStart(Request[Ack]):
-    """Shoot a rows × cols mosaic centred where the head points (or at pan0/tilt0).
+    """Shoot a rows × cols mosaic centred at (pan0, tilt0).
 
-    Fields left out (None) take the rig's configured values.
+    Left out, the centre is the target chosen at the last station (the approach), else
+    the last station's centre (a survey again), else the rig's configured centre: never
+    wherever the head happened to stop. Other fields left out (None) take the rig's
+    configured values.
     """
 
     KIND: ClassVar[str] = "survey.start"

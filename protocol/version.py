@@ -2,7 +2,7 @@
 
 2.0: commands carry the caller's name in their key (``cmd/<client>/<verb>``) and the rig
 binds control to it; a 1.x peer is refused with "protocol 2 required".
-2.1: interest points carry azimuth and elevation.
+2.1: interest points carry azimuth and elevation; a status, the result awaiting a choice.
 """
 
 from __future__ import annotations

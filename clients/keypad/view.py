@@ -61,6 +61,8 @@ def _header(view: RigView, prompt: Prompt) -> list[Line]:
     ptu = view.ptu
     if ptu is None:
         lines.append((" PTU  no state yet", "dim"))
+    elif not view.alive:  # the last word of a rig that is gone: shown as such
+        lines.append((f" PTU  pan {ptu.pan:+8.2f}°  tilt {ptu.tilt:+7.2f}°  STALE", "dim"))
     else:
         motion = "MOVING" if ptu.moving else "still"
         link = "" if ptu.link == "ready" else f"  link {ptu.link.upper()}"
@@ -116,12 +118,20 @@ def _points(view: RigView, width: int) -> list[Line]:
 
 
 def _log(view: RigView, rows: int, width: int) -> list[Line]:
+    """The newest entries that fit, each wrapped (continuation lines indented under the
+    text), so a long reason or error is read whole, not cut at the screen's edge."""
+    if rows <= 0:
+        return []
     lines: list[Line] = []
-    for entry in list(view.log)[-rows:] if rows > 0 else []:
+    for entry in view.log:
         stamp = time.strftime("%H:%M:%S", time.localtime(entry.at))
-        text = f" {stamp} {entry.text}"
-        lines.append((text[: width - 1], _LEVEL_STYLE.get(entry.level, "normal")))
-    return lines
+        style = _LEVEL_STYLE.get(entry.level, "normal")
+        wrapped = textwrap.wrap(
+            entry.text, width - 11, subsequent_indent="", break_long_words=True
+        ) or [""]
+        lines.append((f" {stamp} {wrapped[0]}", style))
+        lines.extend((f"          {more}", style) for more in wrapped[1:])
+    return lines[-rows:]
 
 
 def render(view: RigView, prompt: Prompt, width: int = 80, height: int = 24) -> list[Line]:

@@ -68,3 +68,17 @@ def test_progress_runs_through_the_stages_monotonically() -> None:
     steps += [("chips", k, 3) for k in range(4)] + [("done", 0, 0)]
     fractions = [progress_fraction(*s) for s in steps]
     assert fractions == sorted(fractions) and fractions[0] == 0 and fractions[-1] == 1
+
+
+def test_long_log_lines_wrap_and_a_gone_rig_shows_its_pose_as_stale() -> None:
+    view = RigView(alive=True)
+    long = "station 20261121-101500/st01-300m failed: " + "the PTU did not answer " * 5
+    view.log.append(LogLine(time.time(), "error", long))
+    lines = [t for t, _ in render(view, PROMPT)]
+    text = " ".join(t.strip() for t in lines)
+    assert "did not answer the PTU did not answer" in text  # nothing cut at the edge
+    assert sum("the PTU did not answer" in t for t in lines) >= 2
+    view.ptu = PtuState(12.0, -3.0, False)
+    view.alive = False
+    (ptu_line,) = [(t, s) for t, s in render(view, PROMPT) if t.startswith(" PTU")]
+    assert "STALE" in ptu_line[0] and ptu_line[1] == "dim"

@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 import os
 import socket
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -181,3 +183,15 @@ def test_router_config_errors_say_what(tmp_path: Path, text: str, message: str) 
     with pytest.raises(ValueError, match=None) as info:
         load_router(path)
     assert message in str(info.value)
+
+
+def test_archive_files_are_readable_by_the_group(tmp_path: Path) -> None:
+    """Under systemd (UMask=0027) results are 0640: the geologist in group cyborg reads them."""
+    code = (
+        "import os, sys; os.umask(0o027); from pathlib import Path;"
+        "from daemon.imageio import write_atomic;"
+        "write_atomic(Path(sys.argv[1]), b'x')"
+    )
+    target = tmp_path / "a" / "result.json"
+    subprocess.run([sys.executable, "-c", code, str(target)], check=True)
+    assert target.stat().st_mode & 0o777 == 0o640

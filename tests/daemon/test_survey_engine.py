@@ -140,3 +140,23 @@ async def test_plan_outside_the_limits_is_refused_before_moving(engine) -> None:
     with pytest.raises(PtuLimitError, match="outside the unit's limits"):
         survey.start(SurveyStart(rows=4, cols=3, tilt0=20.0), "tester")
     assert archive.sessions() == [] and survey.state == "idle"
+
+
+async def test_a_survey_is_centred_by_decision_not_where_the_head_stopped(engine) -> None:
+    """Chips leave the head at the last point; a survey asked again without a centre is
+    shot where the last one was (and the first where the rig was set up to face)."""
+    survey, _, _ = engine
+    survey.start(SurveyStart(rows=1, cols=2), "tester")
+    await survey._task
+    assert (survey.station.manifest["plan"]["pan0"], survey.station.manifest["plan"]["tilt0"]) == (
+        0.0,
+        0.0,
+    )
+    survey.start(SurveyStart(rows=1, cols=2, pan0=10.0, tilt0=2.0), "tester")
+    await survey._task
+    here = survey.rig.pose
+    assert (here.pan, here.tilt) != pytest.approx((10.0, 2.0), abs=0.5)  # at a chip
+    survey.start(SurveyStart(rows=1, cols=2), "tester")
+    await survey._task
+    plan = survey.station.manifest["plan"]
+    assert (plan["pan0"], plan["tilt0"]) == (10.0, 2.0)

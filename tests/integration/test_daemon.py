@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import os
 import signal
@@ -14,6 +15,7 @@ import numpy as np
 import pytest
 
 from clients.rigclient import RigClient, RigError, run_station
+from clients.watch import RigWatch
 from daemon.camera.simulated import outcrop_panorama
 from protocol.envelope import decode, encode
 from protocol.messages import (
@@ -38,6 +40,7 @@ from protocol.messages import (
     SurveyStatus,
     TakeControl,
 )
+from protocol.transport import Transport
 from protocol.version import PROTOCOL_MAJOR
 
 pytestmark = pytest.mark.timeout(120)
@@ -407,3 +410,27 @@ async def test_commands_without_a_daemon_fail_clearly(client: RigClient) -> None
         await client.call(SurveyStatus(), timeout=1.0)
     with pytest.raises(RigError, match="not on the bus"):
         await client.wait_alive(timeout=0.3)
+
+
+async def test_a_client_opened_mid_station_sees_the_points_awaiting_a_choice(
+    daemon, client: RigClient, router: str
+) -> None:
+    """The keypad (its view) started after the result was published still shows the
+    points the rig waits on: the status carries them."""
+    await client.wait_alive()
+    progress = client.subscribe(client.keys.progress, SurveyProgress)
+    results = client.subscribe(client.keys.result, InterestResult)
+    await client.command(TakeControl())
+    result = await run_station(client, progress, results, SurveyStart(rows=1, cols=2))
+    with RigClient.open(Transport("client", connect=(router,)), "itest", "late") as late:
+        watch = RigWatch(late)
+        following = asyncio.create_task(watch.run())
+        try:
+            async with asyncio.timeout(10):
+                while watch.view.result is None:
+                    await asyncio.sleep(0.05)
+        finally:
+            following.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await following
+    assert watch.view.result == result

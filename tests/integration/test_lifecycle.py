@@ -10,7 +10,11 @@ from pathlib import Path
 
 import pytest
 
-from clients.launch import simulated_config, spawn
+from clients.launch import free_port, simulated_config, spawn
+from clients.rigclient import RigClient
+from protocol.messages import Hello, SurveyStatus
+from protocol.transport import Transport
+from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -66,3 +70,22 @@ def test_missing_ptu_exits_with_one_line(tmp_path: Path) -> None:
     last = proc.stderr.strip().splitlines()[-1]
     assert last.startswith("cyborgd: ") and "ttyNOPE" in last
     assert "Traceback" not in proc.stderr
+
+
+async def test_a_simulated_rig_in_one_command(tmp_path: Path) -> None:
+    """``cyborgd run --sim`` (``make rig``): the emulator and the simulated camera, nothing
+    to configure; clients reach it and survey."""
+    port = free_port()
+    archive = tmp_path / "rig"
+    args = ["--sim", "--archive", str(archive), "--listen", f"tcp/127.0.0.1:{port}"]
+    daemon = await spawn(args, tmp_path / "cyborgd.log")
+    try:
+        link = Transport("client", connect=(f"tcp/127.0.0.1:{port}",))
+        with RigClient.open(link, "rig1", "trying") as client:
+            await client.wait_alive()
+            status = await client.command(SurveyStatus())
+            assert status.state == "idle" and daemon.ready["archive"] == str(archive.resolve())
+            hello = await client.command(Hello(PROTOCOL_MAJOR, PROTOCOL_MINOR))
+            assert hello.rig == "rig1"
+    finally:
+        assert await daemon.stop() == 0
