@@ -9,6 +9,9 @@ same clock). Command latency is a client's round trip for ``hello`` (bus only) a
 ``ptu/goto`` to where the head already is (two serial commands at 9600 baud), measured
 with the live view off (the baseline) and with 1 and 16 subscribers watching.
 
+Then the live views a thin link can ask for (``cam/stream``): bandwidth, frame rate and
+latency of one viewer at each setting, against the rig's own view.
+
 Usage: ``python -m bench.bus [--seconds 5] [--commands 40] [--json]``.
 """
 
@@ -39,18 +42,20 @@ FPS = 25
 class _Watcher:
     """One subscriber session recording each frame's delivery latency."""
 
-    def __init__(self, endpoint: str) -> None:
+    def __init__(self, endpoint: str, key: str | None = None) -> None:
         self.session = zenoh.open(zenoh.Config.from_json5(Transport(connect=(endpoint,)).json5()))
         self.samples: list[float] = []
+        self.bytes = 0
         self.recording = False
         self.sub = self.session.declare_subscriber(
-            Keys("busbench").frame, zenoh.handlers.Callback(self._on, indirect=False)
+            key or Keys("busbench").frame, zenoh.handlers.Callback(self._on, indirect=False)
         )
 
     def _on(self, sample: zenoh.Sample) -> None:
         now = time.time_ns()
         if self.recording and sample.attachment is not None:
             self.samples.append((now - decode(sample.attachment.to_bytes()).ts) / 1e9)
+            self.bytes += len(sample.payload) + len(sample.attachment)
 
     def close(self) -> None:
         self.sub.undeclare()
@@ -71,7 +76,7 @@ async def _commands(client: RigClient, n: int) -> dict[str, dict[str, float]]:
     return out
 
 
-async def _run(seconds: float, n_commands: int) -> list[dict]:
+async def _run(seconds: float, n_commands: int) -> dict[str, list[dict]]:
     results = []
     with tempfile.TemporaryDirectory(prefix="bench-bus-") as tmp:
         port = free_port()
@@ -107,7 +112,37 @@ async def _run(seconds: float, n_commands: int) -> list[dict]:
                     finally:
                         for w in watchers:
                             w.close()
-    return results
+                streams = await _streams(client, endpoint, seconds)
+    return {"subscribers": results, "streams": streams}
+
+
+STREAMS = [None, (10.0, 720, 80), (5.0, 640, 70), (2.0, 320, 50), (1.0, 320, 40)]
+"""The rig's own view, then streams a viewer might ask for (fps, width, JPEG quality)."""
+
+
+async def _streams(client: RigClient, endpoint: str, seconds: float) -> list[dict]:
+    """One viewer at a time on each setting: its bandwidth, frame rate and latency."""
+    rows = []
+    for setting in STREAMS:
+        key = await client.stream(*setting) if setting else None
+        watcher = _Watcher(endpoint, key)
+        try:
+            await asyncio.sleep(1.0)
+            watcher.recording = True
+            await asyncio.sleep(seconds)
+            watcher.recording = False
+        finally:
+            watcher.close()
+        name = f"{setting[0]:g} fps, {setting[1]} px, q{setting[2]}" if setting else "rig's own"
+        row: dict = {
+            "view": name,
+            "fps": len(watcher.samples) / seconds,
+            "kbit_s": 8 * watcher.bytes / seconds / 1000,
+        }
+        if watcher.samples:
+            row["frames"] = latency(watcher.samples)
+        rows.append(row)
+    return rows
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -116,10 +151,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--commands", type=int, default=40)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    rows = asyncio.run(_run(args.seconds, args.commands))
+    report = asyncio.run(_run(args.seconds, args.commands))
     if args.json:
-        print(json.dumps(rows, indent=1))
+        print(json.dumps(report, indent=1))
         return 0
+    rows = report["subscribers"]
     print(f"live frames 720x576 JPEG at {FPS} fps, loopback TCP, peer links, no shared memory")
     print(
         f"{'subscribers':>11} {'fps each':>8} {'frame p50':>10} {'frame p99':>10} "
@@ -138,6 +174,15 @@ def main(argv: list[str] | None = None) -> int:
     for r in rows[1:]:
         ratio = r["commands"]["ptu/goto"]["median_ms"] / base
         print(f"goto latency with {r['subscribers']} watching / with none: {ratio:.2f}x")
+    print("\nlive views fitted to the link (cam/stream), one viewer each:")
+    print(f"{'view':>22} {'fps':>6} {'kbit/s':>8} {'frame p50':>10} {'frame p99':>10}")
+    full = report["streams"][0]["kbit_s"] or 1.0
+    for r in report["streams"]:
+        f = r.get("frames") or {"median_ms": float("nan"), "p99_ms": float("nan")}
+        print(
+            f"{r['view']:>22} {r['fps']:6.1f} {r['kbit_s']:8.0f} {f['median_ms']:8.2f}ms "
+            f"{f['p99_ms']:8.2f}ms  ({r['kbit_s'] / full:.2f}x the rig's own)"
+        )
     return 0
 
 

@@ -27,6 +27,7 @@ from protocol.messages import (
     InterestResult,
     Message,
     Request,
+    StreamRequest,
     SurveyProgress,
     SurveyStart,
     SurveyStatus,
@@ -193,8 +194,14 @@ class RigClient:
         )
         return queue
 
-    def frames(self, maxsize: int = 1) -> asyncio.Queue[LiveFrame]:
-        """Live frames, latest wins: a slow consumer sees fresh frames, never a backlog."""
+    async def stream(self, fps: float, width: int, quality: int = 70) -> str:
+        """Ask the rig for a live view that fits a thin link; returns its key (for
+        :meth:`frames` and :meth:`frame_subscriber`)."""
+        return (await self.command(StreamRequest(fps, width, quality))).key
+
+    def frames(self, maxsize: int = 1, key: str | None = None) -> asyncio.Queue[LiveFrame]:
+        """Live frames (the default view, or a :meth:`stream`), latest wins: a slow
+        consumer sees fresh frames, never a backlog."""
         queue: asyncio.Queue[LiveFrame] = asyncio.Queue()
 
         def push(frame: LiveFrame) -> None:
@@ -202,10 +209,12 @@ class RigClient:
                 queue.get_nowait()
             queue.put_nowait(frame)
 
-        self._entities.append(self.frame_subscriber(push))
+        self._entities.append(self.frame_subscriber(push, key))
         return queue
 
-    def frame_subscriber(self, on_frame: Callable[[LiveFrame], None]) -> zenoh.Subscriber:
+    def frame_subscriber(
+        self, on_frame: Callable[[LiveFrame], None], key: str | None = None
+    ) -> zenoh.Subscriber:
         """Call ``on_frame`` on the loop with each live frame until the returned subscriber
         is undeclared; the daemon grabs frames only while somebody subscribes."""
         loop = asyncio.get_running_loop()
@@ -223,7 +232,7 @@ class RigClient:
                 loop.call_soon_threadsafe(on_frame, frame)
 
         return self.session.declare_subscriber(
-            self.keys.frame, zenoh.handlers.Callback(on_sample, indirect=False)
+            key or self.keys.frame, zenoh.handlers.Callback(on_sample, indirect=False)
         )
 
     async def wait_alive(self, timeout: float = 10.0) -> None:

@@ -34,6 +34,7 @@ from .bus import Bus
 from .camera import CameraError, open_camera
 from .commands import Commands
 from .config import Config
+from .liveview import LiveViews, View
 from .ptu import LinkState, PtuError, open_ptu
 from .record import Recorder
 from .rig import Rig
@@ -52,6 +53,10 @@ class _Service:
 
     def __init__(self, cfg: Config, bus: Bus, rig: Rig, recorder: Recorder | None) -> None:
         self.cfg, self.bus, self.rig, self.recorder = cfg, bus, rig, recorder
+        quality = cfg.frames.jpeg_quality
+        self.views = LiveViews(bus.keys, cfg.frames.rate, quality, bus.frame_wanted)
+        self.record_view = View(bus.keys.frame, 0.0, None, quality)
+        """How the session log's frames are encoded: full size, the live view's quality."""
 
     def event(self, level: str, text: str) -> None:
         getattr(_LOGGER, "error" if level == "error" else "info")("%s", text)
@@ -90,18 +95,18 @@ class _Service:
                     await self.rig.changed.wait()
 
     async def frame_loop(self) -> None:
-        """Live frames, latest wins: skip work when nobody watches, never queue frames."""
-        if self.cfg.frames.rate <= 0:
-            return
-        period = 1.0 / self.cfg.frames.rate
-        quality = [cv2.IMWRITE_JPEG_QUALITY, self.cfg.frames.jpeg_quality]
-        next_at = time.monotonic()
+        """Live frames, latest wins: grab only when a view is due and watched (or the
+        session log wants one), encode each view at its size, never queue frames."""
+        views = self.views
         failures = 0
         while True:
-            next_at = max(next_at + period, time.monotonic())
-            watched = self.bus.frame_wanted()
+            now = time.monotonic()
+            due = views.due(now)
+            for key in views.dropped:
+                self.bus.drop_publisher(key)
+            views.dropped.clear()
             recorded = self.recorder is not None and self.recorder.frame_due()
-            if watched or recorded:
+            if due or recorded:
                 try:
                     frame = await self.rig.grab()
                     failures = 0
@@ -109,18 +114,20 @@ class _Service:
                     failures += 1
                     if failures == 1:
                         self.event("warning", f"camera: {exc}")
-                    await asyncio.sleep(min(5.0, period * failures))
+                    await asyncio.sleep(min(5.0, 0.5 * failures))
                     continue
-                ok, jpeg = await asyncio.to_thread(cv2.imencode, ".jpg", frame.image, quality)
-                if ok:
-                    h, w = frame.image.shape[:2]
-                    pose = frame.pose or (None, None)
-                    header = FrameHeader(frame.seq, w, h, pose[0], pose[1])
-                    if watched:
-                        self.bus.publish_frame(jpeg.tobytes(), header)
-                    if recorded and self.recorder is not None:
-                        self.recorder.frame(jpeg.tobytes(), header)
-            await asyncio.sleep(max(0.0, next_at - time.monotonic()))
+                pose = frame.pose or (None, None)
+                for view in [*due, self.record_view] if recorded else due:
+                    encoded = await asyncio.to_thread(view.encode, frame.image)
+                    if encoded is None:
+                        continue
+                    jpeg, width, height = encoded
+                    header = FrameHeader(frame.seq, width, height, pose[0], pose[1])
+                    if view is self.record_view and self.recorder is not None:
+                        self.recorder.frame(jpeg, header)
+                    else:
+                        self.bus.publish_frame(jpeg, header, view.key)
+            await asyncio.sleep(views.next_wake(time.monotonic(), cap=0.2))
 
     async def watchdog_loop(self, notifier: Notifier, interval: float) -> None:
         while True:
@@ -210,6 +217,7 @@ async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
             encode=bus.envelope,
             announce=service.event,
             max_reply=MAX_MESSAGE - 4096,
+            views=service.views,
         )
         queries = bus.declare_commands()
         bus.announce()

@@ -93,25 +93,32 @@ class Bus:
         """Telemetry and results; ``latest_wins`` drops rather than queues under congestion."""
         self._publisher(key, latest_wins).put(self.envelope(msg))
 
-    def _frame_publisher(self) -> zenoh.Publisher:
-        pub = self._publishers.get(self.keys.frame)
+    def _frame_publisher(self, key: str) -> zenoh.Publisher:
+        pub = self._publishers.get(key)
         if pub is None:
             pub = self.session.declare_publisher(
-                self.keys.frame,
+                key,
                 encoding=zenoh.Encoding.IMAGE_JPEG,
                 congestion_control=zenoh.CongestionControl.DROP,
                 express=True,
             )
-            self._publishers[self.keys.frame] = pub
+            self._publishers[key] = pub
         return pub
 
-    def frame_wanted(self) -> bool:
-        """Whether anyone subscribes to live frames (no grab, no encode otherwise)."""
-        return self._frame_publisher().matching_status.matching
+    def frame_wanted(self, key: str | None = None) -> bool:
+        """Whether anyone subscribes to these live frames (no grab, no encode otherwise)."""
+        return self._frame_publisher(key or self.keys.frame).matching_status.matching
 
-    def publish_frame(self, jpeg: bytes, header: Message) -> None:
+    def publish_frame(self, jpeg: bytes, header: Message, key: str | None = None) -> None:
         """A live frame: the JPEG is the payload, the small header the attachment."""
-        self._frame_publisher().put(jpeg, attachment=self.envelope(header))
+        self._frame_publisher(key or self.keys.frame).put(jpeg, attachment=self.envelope(header))
+
+    def drop_publisher(self, key: str) -> None:
+        """Undeclare a stream's publisher once nobody watches it any more."""
+        pub = self._publishers.pop(key, None)
+        if pub is not None:
+            with contextlib.suppress(zenoh.ZError):
+                pub.undeclare()
 
     def announce(self) -> None:
         """Declare the liveliness token: from now on clients see the rig as up."""

@@ -32,6 +32,7 @@ from protocol.messages import (
     PtuLook,
     ReleaseControl,
     Status,
+    StreamRequest,
     SurveyCancel,
     SurveyStart,
     SurveyStatus,
@@ -41,6 +42,7 @@ from protocol.messages import (
 from protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 from .archive import Archive, ArchiveError
+from .liveview import LiveViews
 from .ptu import PtuConnectionError, PtuError, PtuLimitError, PtuTimeoutError
 from .ptu.geometry import pixel_to_angles
 from .rig import Rig
@@ -68,12 +70,14 @@ class Commands:
         encode: Callable[[Message, str | None], bytes],
         announce: Callable[[str, str], None],
         max_reply: int,
+        views: LiveViews,
     ) -> None:
         self.rig, self.survey, self.archive, self.worker = rig, survey, archive, worker
         self.rig_name = rig_name
         self._encode = encode
         self._announce = announce
         self._max_reply = max_reply
+        self.views = views
         # One handler per verb, named after it (``ptu/goto`` -> ``_ptu_goto``): a command
         # declared in protocol.messages without its handler here fails at start-up.
         self._handlers: dict[str, Callable[[Any, str], Awaitable[Message]]] = {
@@ -236,6 +240,9 @@ class Commands:
     async def _archive_get(self, msg: ArchiveGet, src: str) -> Message:
         data = await asyncio.to_thread(self.archive.read, msg.session, msg.product, self._max_reply)
         return ArchiveData(msg.session, msg.product, data)
+
+    async def _cam_stream(self, msg: StreamRequest, src: str) -> Message:
+        return self.views.ask(msg)
 
     async def _hello(self, msg: Hello, src: str) -> Message:
         return Hello(PROTOCOL_MAJOR, PROTOCOL_MINOR, BUILD, self.rig_name)

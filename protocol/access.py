@@ -7,7 +7,8 @@ segment, so it cannot speak for anyone else, and let nobody but the rig itself p
 the rig's telemetry. Roles:
 
 * ``operator``: every command, all telemetry and frames;
-* ``viewer``: telemetry, frames, ``hello``, ``survey/status`` and the archive (read only).
+* ``viewer``: telemetry, frames (``cam/stream`` included), ``hello``, ``survey/status`` and
+  the archive (read only).
 
 Clients on the rig's own unix socket (``unixsock-stream``) may send any command under any
 name: the socket's file permissions are their credential. They cannot publish telemetry.
@@ -36,7 +37,7 @@ __all__ = ["ROLES", "User", "Users", "access_control", "load_users"]
 
 ROLES: dict[str, tuple[str, ...]] = {
     "operator": COMMANDS,
-    "viewer": ("hello", "survey/status", "archive/list", "archive/get"),
+    "viewer": ("hello", "survey/status", "archive/list", "archive/get", "cam/stream"),
 }
 """The command verbs each role may send."""
 

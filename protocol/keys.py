@@ -67,6 +67,10 @@ class Keys:
     def frame(self) -> str:
         return f"{self.root}/cam/frame"
 
+    def stream(self, name: str) -> str:
+        """A live view at its own rate, size and quality (``StreamRequest.name``)."""
+        return f"{self.frame}/{name}"
+
     @property
     def ptu_state(self) -> str:
         return f"{self.root}/ptu/state"

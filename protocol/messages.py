@@ -30,6 +30,7 @@ __all__ = [
     "ChooseTarget",
     "Event",
     "FrameHeader",
+    "FrameStream",
     "Hello",
     "InterestPoint",
     "InterestResult",
@@ -43,6 +44,7 @@ __all__ = [
     "ReleaseControl",
     "Request",
     "Status",
+    "StreamRequest",
     "SurveyCancel",
     "SurveyProgress",
     "SurveyStart",
@@ -228,6 +230,17 @@ class FrameHeader(Message):
     height: int
     pan: float | None = None
     tilt: float | None = None
+
+
+@dataclass(frozen=True)
+class FrameStream(Message):
+    """The answer to ``cam/stream``: where the asked-for live view is published."""
+
+    KIND: ClassVar[str] = "cam.stream"
+    key: str
+    fps: float
+    width: int
+    quality: int
 
 
 @dataclass(frozen=True)
@@ -459,6 +472,34 @@ class ArchiveGet(Request[ArchiveData]):
 
 
 @dataclass(frozen=True)
+class StreamRequest(Request[FrameStream]):
+    """A live view that fits the link (2.1): at most ``fps`` frames a second, ``width``
+    pixels wide, JPEG ``quality``. The rig publishes it on the key it answers with while
+    anybody subscribes there; clients asking the same settings share one stream."""
+
+    KIND: ClassVar[str] = "cam.stream.request"
+    VERB: ClassVar[str] = "cam/stream"
+    REPLY: ClassVar[type[Message]] = FrameStream
+    fps: float = 2.0
+    width: int = 640
+    quality: int = 70
+
+    def __post_init__(self) -> None:
+        _in("fps", self.fps, 0.1, 30.0)
+        _in("width", self.width, 64, 4096)
+        _in("quality", self.quality, 10, 95)
+
+    @property
+    def name(self) -> str:
+        """The stream's key segment, the same for the same settings.
+
+        >>> StreamRequest(2.5, 320, 50).name
+        '2.5fps-320w-q50'
+        """
+        return f"{self.fps:g}fps-{self.width}w-q{self.quality}"
+
+
+@dataclass(frozen=True)
 class Hello(Request["Hello"]):
     """Both the ``hello`` command and its answer: who the rig is and what it speaks."""
 
@@ -500,6 +541,8 @@ MESSAGES: dict[str, type[Message]] = {
         InterestResult,
         Event,
         FrameHeader,
+        FrameStream,
+        StreamRequest,
         Chip,
         Status,
         ArchiveListing,

@@ -30,6 +30,7 @@ from protocol.messages import (
     Ack,
     ArchiveGet,
     ArchiveList,
+    StreamRequest,
 )
 
 from ..rigclient import LiveFrame, RigClient, RigError, RigRefusedError
@@ -60,6 +61,8 @@ class Operator:
         self.watch = RigWatch(client)
         self._pages: set[_Page] = set()
         self._frames: Any = None  # the zenoh subscriber while a page is open
+        self._view_key: str | None = None
+        """The live view the console shows: None, the rig's default; else a stream."""
         self._cache: OrderedDict[str, bytes] = OrderedDict()
         self._cached = 0
 
@@ -71,6 +74,7 @@ class Operator:
                 web.get("/", self._index, name=INDEX),
                 web.static("/static", STATIC, name=ASSETS),
                 web.get("/ws", self._socket),
+                web.post("/api/view", self._view),
                 web.post("/api/{verb:.+}", self._command),
                 web.get("/api/archive", self._archive),
                 web.get("/api/archive/{session}", self._archive),
@@ -115,7 +119,7 @@ class Operator:
         page = _Page(ws)
         self._pages.add(page)
         if self._frames is None:
-            self._frames = self.client.frame_subscriber(self._on_frame)
+            self._frames = self.client.frame_subscriber(self._on_frame, self._view_key)
         sender = asyncio.create_task(self._send(page))
         try:
             async for msg in ws:
@@ -133,6 +137,27 @@ class Operator:
                     self._frames.undeclare()
                 self._frames = None
         return ws
+
+    async def _view(self, request: web.Request) -> web.Response:
+        """``POST /api/view`` {fps, width, quality}, or {} for the rig's own live view: the
+        console's live view, fitted to its link (every page of this console shares it)."""
+        try:
+            body = await request.json()
+            if not isinstance(body, dict):
+                raise ValueError("the body must be a JSON object")
+            key = None
+            if body:
+                req = StreamRequest.from_body(body)
+                key = await self.client.stream(req.fps, req.width, req.quality)
+        except (ValueError, RigError) as exc:
+            return web.json_response({"ok": False, "result": "ERROR", "detail": str(exc)})
+        self._view_key = key
+        if self._frames is not None:
+            with contextlib.suppress(Exception):
+                self._frames.undeclare()
+            self._frames = self.client.frame_subscriber(self._on_frame, key)
+        detail = f"live view: {key.rsplit('/', 1)[-1]}" if key else "live view: the rig's own"
+        return web.json_response({"ok": True, "result": "OK", "detail": detail})
 
     def _on_frame(self, frame: LiveFrame) -> None:
         for page in self._pages:

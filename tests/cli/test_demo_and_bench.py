@@ -208,9 +208,11 @@ def test_survey_benchmark_smoke(capsys):
 @pytest.mark.timeout(120)
 def test_bus_benchmark_smoke(capsys):
     assert bus.main(["--seconds", "1", "--commands", "3", "--json"]) == 0
-    rows = json.loads(capsys.readouterr().out)
+    report = json.loads(capsys.readouterr().out)
+    rows = report["subscribers"]
     assert [r["subscribers"] for r in rows] == [0, 1, 16]
     assert rows[2]["fps_per_subscriber"] > 0 and rows[2]["frames"]["median_ms"] > 0
+    assert len(report["streams"]) == 5 and all(r["kbit_s"] >= 0 for r in report["streams"])
 
 
 @pytest.mark.timeout(180)

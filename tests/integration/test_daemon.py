@@ -434,3 +434,28 @@ async def test_a_client_opened_mid_station_sees_the_points_awaiting_a_choice(
             with contextlib.suppress(asyncio.CancelledError):
                 await following
     assert watch.view.result == result
+
+
+async def test_streams_fit_the_link_each_subscriber_its_own(
+    daemon, client: RigClient, other_client: RigClient
+) -> None:
+    """Two viewers ask for 2 and 10 fps at their own sizes: over the same window the first
+    gets clearly fewer frames (a ratio, not a rate), each at the width it asked for."""
+    await client.wait_alive()
+    await other_client.wait_alive()
+    slow_key = await client.stream(2.0, 320, 50)
+    fast_key = await other_client.stream(10.0, 480, 70)
+    assert slow_key != fast_key and slow_key.endswith("/cam/frame/2fps-320w-q50")
+    slow = client.frames(maxsize=1000, key=slow_key)
+    fast = other_client.frames(maxsize=1000, key=fast_key)
+    await asyncio.sleep(3.0)
+    n_slow, n_fast = slow.qsize(), fast.qsize()
+    assert n_slow > 0 and n_fast >= 2 * n_slow, (n_slow, n_fast)
+    small = cv2.imdecode(np.frombuffer(slow.get_nowait().jpeg, np.uint8), cv2.IMREAD_COLOR)
+    large = cv2.imdecode(np.frombuffer(fast.get_nowait().jpeg, np.uint8), cv2.IMREAD_COLOR)
+    assert small.shape[1] == 320 and large.shape[1] == 480
+    # Out-of-range asks are refused by the request's own checks.
+    reply = await client.call_raw(
+        "cam/stream", encode("cam.stream.request", {"fps": 500.0}, src="tester")
+    )
+    assert reply.result == "ERROR" and "fps" in reply.detail

@@ -54,6 +54,13 @@ async def test_operator_page_surveys_and_repoints(
     await wait("window.cyborgStats().frames >= 3")
     assert await asyncio.to_thread(js, "return document.getElementById('live').width;") == 720
     await wait("document.getElementById('alive').textContent.includes('up')")
+    # A thin link: the page asks for 320 px at 2 fps, and gets it; then the full view back.
+    select = "const s = document.getElementById('view'); s.selectedIndex = arguments[0];"
+    await asyncio.to_thread(js, select + "s.dispatchEvent(new Event('change'));", 2)
+    await wait("document.getElementById('live').width === 320")
+    await wait("document.getElementById('reply').textContent.includes('2fps-320w-q50')")
+    await asyncio.to_thread(js, select + "s.dispatchEvent(new Event('change'));", 0)
+    await wait("document.getElementById('live').width === 720")
 
     await client.wait_alive()
     states = client.subscribe(client.keys.ptu_state, PtuState, maxsize=1)

@@ -156,6 +156,7 @@ window.addEventListener("DOMContentLoaded", () => {
   for (const [id, verb] of Object.entries(buttons)) $(id).onclick = () => send(verb);
   $("choose0").onclick = () => state && state.result && send("target/choose", { station: state.result.station, rank: 0 });
   $("layer").onchange = showLayer;
+  $("view").onchange = () => send("view", $("view").value ? JSON.parse($("view").value) : {});
   $("refresh").onclick = () => browse("");
   $("live").addEventListener("click", (ev) => {
     window.cyborgClickAt = Date.now();
