@@ -40,6 +40,12 @@ from .guard import ASSETS, INDEX, Guard
 __all__ = ["Operator"]
 
 STATIC = Path(__file__).parent / "static"
+REPORT_CSP = (
+    "default-src 'none'; img-src 'self' data:; style-src 'unsafe-inline'; "
+    "frame-ancestors 'none'; base-uri 'none'; form-action 'none'"
+)
+"""An archived HTML page (report.html) may show its embedded images and style; nothing
+in it runs."""
 CACHE_BYTES = 64 << 20
 """Archived products are immutable once listed; keep the recent ones near the page."""
 
@@ -239,7 +245,10 @@ class Operator:
             if not product.endswith(".json"):  # manifests change; images do not
                 self._remember(key, data)
         kind = mimetypes.guess_type(product)[0] or "application/octet-stream"
-        return web.Response(body=data, content_type=kind)
+        response = web.Response(body=data, content_type=kind)
+        if kind == "text/html":  # the session report: its own style and images, no script
+            response.headers["Content-Security-Policy"] = REPORT_CSP
+        return response
 
     def _remember(self, key: str, data: bytes) -> None:
         self._cache[key] = data

@@ -119,6 +119,20 @@ async def test_operator_page_surveys_and_repoints(
     session = result["station"].split("/")[0]
     await asyncio.to_thread(browser.click, "#refresh")
     await wait(f"document.getElementById('sessions').textContent.includes('{session}')")
+    # The session's report is listed first, and opens through the console whole.
+    await asyncio.to_thread(
+        js, "Array.from(document.querySelectorAll('#sessions a')).at(-1).click();"
+    )
+    await wait("document.querySelector('#products a')?.textContent === 'report.html'")
+    base = operator.split("?", 1)[0].rstrip("/")
+    await asyncio.to_thread(browser.open, f"{base}/archive/{session}/report.html")
+    await wait("document.images.length > 5")
+    broken = await asyncio.to_thread(
+        js,
+        "return Array.from(document.images).filter((i) => !(i.complete && i.naturalWidth))"
+        ".length;",
+    )
+    assert broken == 0
 
 
 async def test_operator_refuses_plainly(

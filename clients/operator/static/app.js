@@ -139,7 +139,9 @@ function fraction(ev, el) {
 async function browse(session) {
   const listing = await fetch(session ? `/api/archive/${session}` : "/api/archive").then((r) => r.json());
   const target = session ? $("products") : $("sessions");
-  target.replaceChildren(...(listing.items || []).map((item) => {
+  // The session's report first: the page a geologist reads; the raw products after it.
+  const items = [...(listing.items || [])].sort((a, b) => (b === "report.html") - (a === "report.html"));
+  target.replaceChildren(...items.map((item) => {
     const li = document.createElement("li");
     const a = document.createElement("a");
     a.textContent = item;
