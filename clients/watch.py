@@ -142,6 +142,17 @@ class RigWatch:
             seen = self.version
             yield seen
 
+    @contextlib.asynccontextmanager
+    async def following(self) -> AsyncIterator[RigView]:
+        """The view, kept current (:meth:`run` in a task) for the duration of the block."""
+        task = asyncio.create_task(self.run(), name="cyborg.watch.run")
+        try:
+            yield self.view
+        finally:
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+
     async def run(self) -> None:
         """Follow the rig until cancelled; survives the daemon leaving and coming back."""
         c = self.client

@@ -315,6 +315,7 @@ class Survey:
             timing["wall_s"] = time.perf_counter() - t0
             station.update(timing=timing)
             station.finish("complete")
+            await self._report(station)  # current by the time anyone hears of the result
             self._result = InterestResult(self.station_id, tuple(points), *geometry.size)
             self.state = "awaiting-choice"
             self._progress("done", 1, 1, 0.0)
@@ -322,7 +323,6 @@ class Survey:
             self.tel.event(
                 "info", f"station {self.station_id} complete: {len(points)} interest points"
             )
-            await self._report(station)
         except asyncio.CancelledError as exc:
             reason = str(exc.args[0]) if exc.args else "cancelled"
             await self._abandon(station, "incomplete", reason, timing, t0)

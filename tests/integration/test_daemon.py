@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import json
 import os
 import signal
@@ -423,17 +422,11 @@ async def test_a_client_opened_mid_station_sees_the_points_awaiting_a_choice(
     await client.command(TakeControl())
     result = await run_station(client, progress, results, SurveyStart(rows=1, cols=2))
     with RigClient.open(Transport("client", connect=(router,)), "itest", "late") as late:
-        watch = RigWatch(late)
-        following = asyncio.create_task(watch.run())
-        try:
+        async with RigWatch(late).following() as view:
             async with asyncio.timeout(10):
-                while watch.view.result is None:
+                while view.result is None:
                     await asyncio.sleep(0.05)
-        finally:
-            following.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await following
-    assert watch.view.result == result
+    assert view.result == result
 
 
 async def test_streams_fit_the_link_each_subscriber_its_own(

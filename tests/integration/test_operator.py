@@ -129,8 +129,7 @@ async def test_operator_page_surveys_and_repoints(
     await wait("document.images.length > 5")
     broken = await asyncio.to_thread(
         js,
-        "return Array.from(document.images).filter((i) => !(i.complete && i.naturalWidth))"
-        ".length;",
+        "return Array.from(document.images).filter((i) => !(i.complete && i.naturalWidth)).length;",
     )
     assert broken == 0
 

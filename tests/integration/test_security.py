@@ -56,6 +56,19 @@ def _client(endpoint: str, name: str, mode: str = "client", **tls: str) -> Itera
         yield c
 
 
+async def _fakes_never_reach(forger: RigClient, viewer: RigClient) -> None:
+    """``forger`` puts a made-up PTU state on the rig's key, ten times over: the viewer
+    keeps receiving the rig's own states, never the fake."""
+    states = viewer.subscribe(viewer.keys.ptu_state, PtuState)
+    fake = encode(PtuState.KIND, PtuState(150.0, -40.0, False).to_body(), src=RIG)
+    seen: list[PtuState] = []
+    async with asyncio.timeout(10):
+        while len(seen) < 10:
+            forger.session.put(forger.keys.ptu_state, fake)
+            seen.append(await states.get())
+    assert all(s.pan != 150.0 for s in seen)
+
+
 @pytest.fixture(params=["direct", "router"])
 async def rig(request, pki: Path, tmp_path: Path) -> AsyncIterator[str]:
     """The rig behind TLS: listening itself with the access list (``direct``), or dialling
@@ -147,14 +160,7 @@ async def test_only_the_rig_publishes_telemetry(rig: str, pki: Path) -> None:
         _client(rig, "bob", **_tls(pki, "bob")) as bob,
     ):
         await bob.wait_alive()
-        states = bob.subscribe(bob.keys.ptu_state, PtuState)
-        fake = encode(PtuState.KIND, PtuState(150.0, -40.0, False).to_body(), src=RIG)
-        seen = []
-        async with asyncio.timeout(10):
-            while len(seen) < 10:
-                alice.session.put(alice.keys.ptu_state, fake)
-                seen.append(await states.get())
-        assert all(s.pan != 150.0 for s in seen)
+        await _fakes_never_reach(alice, bob)
 
 
 async def test_impersonation_in_the_envelope_is_refused(rig: str, pki: Path) -> None:
@@ -213,13 +219,6 @@ async def test_local_clients_use_the_unix_socket(pki: Path, tmp_path: Path) -> N
             await bob.wait_alive()
             await keypad.command(TakeControl())
             assert (await bob.command(SurveyStatus())).controller == "keypad-field"
-            states = bob.subscribe(bob.keys.ptu_state, PtuState)
-            fake = encode(PtuState.KIND, PtuState(150.0, -40.0, False).to_body(), src=RIG)
-            seen = []
-            async with asyncio.timeout(10):
-                while len(seen) < 10:
-                    keypad.session.put(keypad.keys.ptu_state, fake)
-                    seen.append(await states.get())
-            assert all(s.pan != 150.0 for s in seen)
+            await _fakes_never_reach(keypad, bob)
     finally:
         await daemon.stop()

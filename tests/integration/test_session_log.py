@@ -114,22 +114,16 @@ async def test_replay_drives_the_keypad_view_to_the_recorded_result(
     session, result, _ = await _surveyed(start_daemon, client)
     link = Transport("client", connect=(router,))
     with RigClient.open(link, "replayed", "viewer") as viewer:
-        watch = RigWatch(viewer)
-        following = asyncio.create_task(watch.run())
-        try:
+        async with RigWatch(viewer).following() as view:
             await asyncio.sleep(0.5)
             count = await replay(session / "session.mcap", link, "replayed", speed=20.0)
             assert count > 0
             async with asyncio.timeout(10):
-                while watch.view.result is None or len(watch.view.chips) < 3:
+                while view.result is None or len(view.chips) < 3:
                     await asyncio.sleep(0.05)
-        finally:
-            following.cancel()
-            with pytest.raises(asyncio.CancelledError):
-                await following
-    assert watch.view.result == result
-    assert {c.rank for c in watch.view.chips.values()} == {1, 2, 3}
-    assert watch.view.progress is not None and watch.view.progress.stage == "done"
+    assert view.result == result
+    assert {c.rank for c in view.chips.values()} == {1, 2, 3}
+    assert view.progress is not None and view.progress.stage == "done"
 
 
 async def test_a_killed_daemon_leaves_a_readable_log(start_daemon, client: RigClient) -> None:
