@@ -83,23 +83,24 @@ def simulated_config(
 ) -> str:
     """A ``cyborgd.toml`` for a simulated rig: the PTU-46 emulator on a pty behind the
     real serial driver, and the simulated camera on the generated cliff ``seed``; ``zenoh``
-    adds [zenoh] keys (TLS files, ``users``, ``insecure``), ``sections`` whole tables."""
+    adds [zenoh] keys (TLS files, ``users``, ``insecure``), ``sections`` tables or keys of
+    them (a real [camera], a [site])."""
     mode = "client" if connect and not listen else "peer"
-    links = {"mode": mode, "listen": list(listen), "connect": list(connect), **(zenoh or {})}
+    tables: dict[str, dict[str, Any]] = {
+        "camera": {"url": f"sim://outcrop?seed={seed}&hfov=30"},
+        "zenoh": {"mode": mode, "listen": list(listen), "connect": list(connect)},
+        "frames": {"rate": frame_rate},
+        "survey": dict(survey or {}),
+    }
+    tables["zenoh"] |= zenoh or {}
+    for name, table in (sections or {}).items():  # e.g. [site], [record], a real [camera]
+        tables[name] = tables.get(name, {}) | table
     lines = [
         f"rig = {json.dumps(rig)}",
         f"archive = {json.dumps(str(archive))}",
         f'ptu = "pty://?model=D46-17&time_scale={time_scale:g}{ptu_query}"',
-        "[camera]",
-        f'url = "sim://outcrop?seed={seed}&hfov=30"',
-        "[zenoh]",
-        *(f"{k} = {json.dumps(v)}" for k, v in links.items()),
-        "[frames]",
-        f"rate = {frame_rate:g}",
-        "[survey]",
-        *(f"{k} = {json.dumps(v)}" for k, v in (survey or {}).items()),
     ]
-    for name, table in (sections or {}).items():  # e.g. [site], [record]
+    for name, table in tables.items():
         lines += [f"[{name}]", *(f"{k} = {json.dumps(v)}" for k, v in table.items())]
     return "\n".join(lines) + "\n"
 

@@ -171,7 +171,7 @@ async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
         bus = stack.enter_context(Bus.open(cfg.zenoh, cfg.keys))
         worker = await stack.enter_async_context(VisionWorker())
         ptu = open_ptu(cfg.ptu)
-        rig = Rig(ptu, lambda pose: open_camera(cfg.camera.url, pose=pose))
+        rig = Rig(ptu, lambda pose: open_camera(cfg.camera.url, pose=pose, zoom=cfg.camera.zoom))
         camera = rig.camera
         await stack.enter_async_context(ptu)
         await stack.enter_async_context(camera)
@@ -191,6 +191,8 @@ async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
         service = _Service(cfg, bus, rig, recorder)
         worker.on_restart = lambda text: service.event("warning", text)
         hfov = camera.hfov or cfg.camera.hfov
+        if cfg.survey.zoom_on_target and not camera.has_zoom:
+            raise CameraError("survey.zoom_on_target needs a camera with a zoom ([camera] zoom)")
         gpsd = Gpsd(cfg.site.gpsd) if cfg.site.gpsd else None
         survey = Survey(
             rig,

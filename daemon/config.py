@@ -38,7 +38,9 @@ class ConfigError(ValueError):
 class CameraConfig:
     url: str = "v4l2://0"
     hfov: float = 30.0
-    """Horizontal field of view in degrees at the zoom in use (simulated cameras know theirs)."""
+    """Horizontal field of view in degrees at the widest zoom (simulated cameras know theirs)."""
+    zoom: str = ""
+    """The lens's zoom line, e.g. ``visca:///dev/ttyUSB1?max=30`` (daemon.camera.visca)."""
 
 
 @dataclass(frozen=True)
@@ -70,6 +72,9 @@ class SurveyConfig:
     """Seconds to wait after motion stops before a grab (tripod vibration)."""
     speed: float | None = None
     """PTU slew speed (deg/s) during surveys; None keeps the unit's own setting."""
+    zoom_on_target: bool = False
+    """Intelligent zoom: on a choice, zoom on the target by the next leg's distance ratio
+    instead of walking there (needs a camera with a zoom)."""
     pan0: float = 0.0
     """Centre of a survey nobody aimed (degrees), as the tripod was set up to face."""
     tilt0: float = 0.0

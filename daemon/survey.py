@@ -225,7 +225,9 @@ class Survey:
             raise ArchiveError(f"station {station_id}: no usable plan ({exc})") from None
 
     def _magnification(self) -> float:
-        if not self.cfg.simulate_approach:
+        """How much closer the approach has brought the view, when it zooms rather than
+        walks (intelligent zoom, or a simulation)."""
+        if not (self.cfg.simulate_approach or self.cfg.zoom_on_target):
             return 1.0
         return self.cfg.approach[0] / self.distance
 
@@ -272,8 +274,12 @@ class Survey:
             return f"target {point.rank} chosen at the last station; next survey: new session"
         ap.leg += 1
         ap.aim, ap.aimed_from = (point.pan, point.tilt), f"{result.station}#{point.rank}"
-        if self.cfg.simulate_approach:
-            await self.rig.camera.zoom(self._magnification())
+        if self.cfg.simulate_approach or self.cfg.zoom_on_target:
+            level = self._magnification()
+            seconds = await self.rig.camera.zoom(level)
+            zoom = {"level": round(level, 4), "seconds": round(seconds, 3)}
+            self.station.update(choice=self.station.manifest["choice"] | {"zoom": zoom})
+            await self._report(self.station)
         await self.rig.move_to(point.pan, point.tilt)
         return (
             f"target {point.rank} chosen; next station at {self.distance:g} m aimed at "

@@ -68,8 +68,15 @@ class Camera(ABC):
     @abstractmethod
     async def grab(self) -> Frame: ...
 
-    async def zoom(self, level: float) -> None:  # noqa: B027 - a no-op is the right default
-        """Set the zoom (1 = widest); cameras without a zoom ignore it."""
+    @property
+    def has_zoom(self) -> bool:
+        """Whether :meth:`zoom` changes anything (a zoom lens, or a simulated one)."""
+        return False
+
+    async def zoom(self, level: float) -> float:
+        """Set the magnification (1 = widest); returns the seconds it took. Cameras
+        without a zoom ignore it."""
+        return 0.0
 
     async def __aenter__(self) -> Camera:
         await self.open()

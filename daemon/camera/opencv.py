@@ -16,7 +16,8 @@ from urllib.parse import parse_qs, urlsplit
 import cv2
 import numpy as np
 
-from .base import Camera, CameraUnavailableError, Exposure, Frame
+from .base import Camera, CameraError, CameraUnavailableError, Exposure, Frame
+from .visca import ViscaError, ViscaZoom
 
 __all__ = ["OpenCvCamera", "parse_source"]
 
@@ -55,8 +56,11 @@ class OpenCvCamera(Camera):
         loop: bool = False,
         retries: int = 3,
         backoff: float = 0.2,
+        zoom: ViscaZoom | None = None,
     ) -> None:
+        """``zoom``: the lens's zoom, driven on its own line (VISCA)."""
         self.source = source
+        self.lens = zoom
         self.api = api
         self.loop = loop
         self.retries = retries
@@ -87,6 +91,23 @@ class OpenCvCamera(Camera):
     async def open(self) -> None:
         async with self._lock:
             await self._reopen()
+        if self.lens is not None:
+            try:
+                await self.lens.open()
+            except ViscaError as exc:
+                raise CameraUnavailableError(f"zoom: {exc}") from exc
+
+    @property
+    def has_zoom(self) -> bool:
+        return self.lens is not None
+
+    async def zoom(self, level: float) -> float:
+        if self.lens is None:
+            return 0.0
+        try:
+            return await self.lens.set_level(level)
+        except ViscaError as exc:
+            raise CameraError(f"zoom: {exc}") from exc
 
     async def _reopen(self) -> None:
         await self._release()
@@ -105,6 +126,8 @@ class OpenCvCamera(Camera):
     async def close(self) -> None:
         async with self._lock:
             await self._release()
+        if self.lens is not None:
+            await self.lens.close()
 
     def _read_blocking(self) -> np.ndarray | None:
         cap = self._cap

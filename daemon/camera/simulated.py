@@ -129,13 +129,19 @@ class SimulatedCamera(Camera):
     async def close(self) -> None:
         return None
 
-    async def zoom(self, level: float) -> None:
-        """Narrow the field of view ``level`` times (1 = widest), as a zoom lens would."""
+    @property
+    def has_zoom(self) -> bool:
+        return True
+
+    async def zoom(self, level: float) -> float:
+        """Narrow the field of view ``level`` times (1 = widest), as a zoom lens would,
+        at once."""
         if not level >= 1.0:
             raise ValueError(f"zoom level must be >= 1, got {level!r}")
         wide = CameraModel(self.model.width, self.model.height, self._wide_hfov)
         self.model = wide.zoomed(level)
         self._maps = None
+        return 0.0
 
     def _remap_tables(self, pan: float, tilt: float) -> tuple[np.ndarray, np.ndarray]:
         key = (pan, tilt, self.model.hfov)
