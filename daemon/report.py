@@ -106,6 +106,8 @@ def _station(folder: Path, m: dict[str, Any], href: str) -> str:
             where = f"pan {p['pan']:.2f}°, tilt {p['tilt']:.2f}°"
             if p.get("azimuth") is not None:
                 where = f"azimuth {p['azimuth']:.1f}°, elevation {p['elevation']:.1f}°<br>{where}"
+            if p.get("radius_deg"):
+                where += f"<br>{2 * p['radius_deg']:.2f}° across"
             out.append(
                 f"<tr><td class='rank r{p['rank']}'>{p['rank']}<td>{_e(p.get('why', ''))}"
                 f"<br><small>score {p.get('score', 0):.2f}</small><td>{where}<td>"

@@ -14,6 +14,7 @@ import contextlib
 import functools
 import json
 import logging
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -72,6 +73,8 @@ class _Approach:
     leg: int = 0
     aim: tuple[float, float] | None = None
     aimed_from: str = ""
+    mosaic: tuple[int, int] | None = None
+    """(rows, cols) fitted to the aimed target's size."""
 
 
 class Survey:
@@ -124,10 +127,11 @@ class Survey:
         if self.running:
             raise SurveyBusyError(f"station {self.station_id} is still running")
         c = self.cfg
+        rows, cols = self._approach.mosaic or (c.rows, c.cols)  # fitted to the aimed target
         req = replace(
             req,
-            rows=c.rows if req.rows is None else req.rows,
-            cols=c.cols if req.cols is None else req.cols,
+            rows=rows if req.rows is None else req.rows,
+            cols=cols if req.cols is None else req.cols,
             downsample=c.downsample if req.downsample is None else req.downsample,
             profile=c.profile if req.profile is None else req.profile,
         )
@@ -251,7 +255,7 @@ class Survey:
         if msg.rank == 0:
             self.station.update(choice={"rank": 0, "by": by, "t": time.time()})
             await self._report(self.station)
-            ap.aim, ap.aimed_from = None, ""
+            ap.aim, ap.aimed_from, ap.mosaic = None, "", None
             self.state = "idle"
             return f"no target chosen at {result.station}; next station at {self.distance:g} m"
         point = next((p for p in result.points if p.rank == msg.rank), None)
@@ -272,8 +276,11 @@ class Survey:
             self._approach = _Approach()
             await self.rig.move_to(point.pan, point.tilt)
             return f"target {point.rank} chosen at the last station; next survey: new session"
+        ratio = self.distance / self.cfg.approach[ap.leg + 1]
         ap.leg += 1
         ap.aim, ap.aimed_from = (point.pan, point.tilt), f"{result.station}#{point.rank}"
+        ap.mosaic, fit = self._fit(point, ratio)
+        self.station.update(choice=self.station.manifest["choice"] | {"next": fit})
         if self.cfg.simulate_approach or self.cfg.zoom_on_target:
             level = self._magnification()
             seconds = await self.rig.camera.zoom(level)
@@ -281,10 +288,41 @@ class Survey:
             self.station.update(choice=self.station.manifest["choice"] | {"zoom": zoom})
             await self._report(self.station)
         await self.rig.move_to(point.pan, point.tilt)
+        rows, cols = ap.mosaic
+        advice = (
+            f"; {2 * point.radius_deg:.2f}° across, it will span {fit['target_deg']:.1f}°: "
+            f"a {rows}×{cols} mosaic"
+            + (
+                f" (at {fit['suggested_m']:g} m it would fill a third of the view)"
+                if fit.get("suggested_m")
+                else ""
+            )
+            if point.radius_deg
+            else ""
+        )
         return (
             f"target {point.rank} chosen; next station at {self.distance:g} m aimed at "
-            f"pan {point.pan:.2f}, tilt {point.tilt:.2f}"
+            f"pan {point.pan:.2f}, tilt {point.tilt:.2f}{advice}"
         )
+
+    def _fit(self, point: InterestPoint, ratio: float) -> tuple[tuple[int, int], dict[str, Any]]:
+        """The next station's mosaic from the target's size: three target diameters each
+        way (the target and its setting), at most the configured mosaic; and the distance
+        at which it would fill a third of the widest view (the seed's missing foresight
+        in where to stand)."""
+        c = self.cfg
+        if not point.radius_deg:
+            return (c.rows, c.cols), {"rows": c.rows, "cols": c.cols}
+        camera = self.live_camera()  # at the next leg: narrower if the approach zooms
+        across = 2 * point.radius_deg * ratio  # degrees as seen from the next station
+        if self._magnification() > 1.0:  # zooming: the view narrows, the target does not grow
+            across = 2 * point.radius_deg
+        cols = max(1, min(c.cols, math.ceil(3 * across / camera.hfov)))
+        rows = max(1, min(c.rows, math.ceil(3 * across / camera.vfov)))
+        here = self.cfg.approach[self._approach.leg - 1]
+        suggested = round(here * 2 * point.radius_deg / (self.hfov / 3), 1)
+        fit = {"rows": rows, "cols": cols, "target_deg": round(across, 3), "suggested_m": suggested}
+        return (rows, cols), fit
 
     async def _report(self, station: Station) -> None:
         """Rewrite the session's report (daemon.report); a report that cannot be written
@@ -422,6 +460,7 @@ class Survey:
 
     def _points(self, doc: dict[str, Any], geometry: MosaicGeometry) -> list[InterestPoint]:
         points = []
+        degrees_per_pixel = geometry.camera.hfov / geometry.tile_size[0]
         for p in doc["points"]:
             # result.json: pixel k's centre is at k; the geometry puts it at k + 0.5.
             pan, tilt = geometry.to_angles(p["x"] + 0.5, p["y"] + 0.5)
@@ -436,6 +475,7 @@ class Survey:
                     p["description"],
                     self.orientation.azimuth(pan),
                     self.orientation.elevation(tilt),
+                    round(p.get("radius", 0.0) * degrees_per_pixel, 4),
                 )
             )
         return points

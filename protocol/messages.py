@@ -199,6 +199,8 @@ class InterestPoint(Message):
     """True azimuth (degrees from north) when the rig knows its heading (2.1)."""
     elevation: float | None = None
     """Degrees above the horizon, the head's level offset applied (2.1)."""
+    radius_deg: float | None = None
+    """The target's angular radius, degrees (2.1): how big it is, not just where."""
 
 
 @dataclass(frozen=True)

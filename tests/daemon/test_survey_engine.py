@@ -18,7 +18,7 @@ from daemon.ptu import open_ptu
 from daemon.rig import Rig
 from daemon.survey import Survey, SurveyTelemetry
 from daemon.worker import VisionWorker
-from protocol.messages import SurveyStart
+from protocol.messages import ChooseTarget, SurveyStart
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -160,3 +160,26 @@ async def test_a_survey_is_centred_by_decision_not_where_the_head_stopped(engine
     await survey._task
     plan = survey.station.manifest["plan"]
     assert (plan["pan0"], plan["tilt0"]) == (10.0, 2.0)
+
+
+async def test_the_next_station_is_aimed_and_sized_by_the_target(engine) -> None:
+    """A point carries its angular size; choosing it plans the next mosaic around it (three
+    target diameters each way, at most the configured mosaic) and says where to stand for
+    it to fill a third of the view."""
+    survey, _, _ = engine
+    survey.start(SurveyStart(rows=2, cols=3), "tester")
+    await survey._task
+    result = survey._result
+    best = result.points[0]
+    assert best.radius_deg and best.radius_deg > 0
+    ack = await survey.choose(ChooseTarget(result.station, 1), "tester")
+    fit = survey.station.manifest["choice"]["next"]
+    assert "across" in ack and f"{fit['rows']}×{fit['cols']} mosaic" in ack
+    assert fit["target_deg"] == pytest.approx(2 * best.radius_deg * 300 / 60, rel=1e-3)
+    assert fit["suggested_m"] == pytest.approx(300 * 2 * best.radius_deg / 10.0, rel=1e-2)
+    assert 1 <= fit["rows"] <= 2 and 1 <= fit["cols"] <= 3
+    survey.start(SurveyStart(), "tester")  # no size asked: the fitted one
+    plan = survey.station.manifest["plan"]
+    assert (plan["rows"], plan["cols"]) == (fit["rows"], fit["cols"])
+    assert (plan["pan0"], plan["tilt0"]) == (best.pan, best.tilt)
+    await survey._task
