@@ -15,7 +15,8 @@ router.toml (relative paths are from its folder)::
     tls_cert = "/etc/cyborgd/tls/router.crt"
     tls_key = "/etc/cyborgd/tls/router.key"
     users = "/etc/cyborgd/users.toml"
-    # passwords = "/etc/cyborgd/passwords"   # optional usrpwd dictionary
+    # passwords = "/etc/cyborgd/passwords"   # optional usrpwd dictionary (user:password lines)
+    # mtls = false                           # let password users in without a certificate
     # insecure = false                       # clear text beyond loopback: never in the field
 """
 
@@ -41,7 +42,7 @@ from .zenohlog import route_zenoh_logs
 __all__ = ["load_router", "run_router"]
 
 _LOGGER = logging.getLogger(__name__)
-_KEYS = {"rig", "listen", "tls_ca", "tls_cert", "tls_key", "users", "passwords", "insecure"}
+_KEYS = {"rig", "listen", "tls_ca", "tls_cert", "tls_key", "mtls", "users", "passwords", "insecure"}
 
 
 def load_router(path: Path) -> Transport:
@@ -75,6 +76,7 @@ def load_router(path: Path) -> Transport:
         tls_ca=str(data.get("tls_ca", "")),
         tls_cert=str(data.get("tls_cert", "")),
         tls_key=str(data.get("tls_key", "")),
+        mtls=bool(data.get("mtls", True)),
         passwords=str(data.get("passwords", "")),
         insecure=bool(data.get("insecure", False)),
         access=access_control(keys, users, local=False),

@@ -117,8 +117,11 @@ def access_control(keys: Keys, users: Users, *, local: bool = True) -> dict[str,
         _rule("watch", _FROM_CLIENT, ["ingress"], [everything]),
         _rule("receive", _TO_CLIENT, ["egress"], [everything]),
     ]
-    subjects: list[dict[str, Any]] = [{"id": "rig", "cert_common_names": [users.rig]}]
-    policies: list[dict[str, Any]] = [{"rules": ["rig"], "subjects": ["rig"]}]
+    subjects: list[dict[str, Any]] = [
+        {"id": "rig", "cert_common_names": [users.rig]},
+        {"id": "rig-user", "usernames": [users.rig]},  # where passwords stand in for certs
+    ]
+    policies: list[dict[str, Any]] = [{"rules": ["rig"], "subjects": ["rig", "rig-user"]}]
     for user in users.users:
         verbs = ROLES[user.role]
         commands = (

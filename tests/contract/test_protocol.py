@@ -203,5 +203,5 @@ def test_access_list_lets_each_name_query_only_its_own_commands() -> None:
     # Only the rig may put: no rule but the rig's lets a put in.
     puts_in = [r for r in acl["rules"] if "put" in r["messages"] and "ingress" in r["flows"]]
     assert [r["id"] for r in puts_in] == ["rig"]
-    assert {"rules": ["rig"], "subjects": ["rig"]} in acl["policies"]
+    assert {"rules": ["rig"], "subjects": ["rig", "rig-user"]} in acl["policies"]
     assert not any(s.get("link_protocols") for s in acl["subjects"])  # a router has no socket

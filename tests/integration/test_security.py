@@ -222,3 +222,36 @@ async def test_local_clients_use_the_unix_socket(pki: Path, tmp_path: Path) -> N
             await _fakes_never_reach(keypad, bob)
     finally:
         await daemon.stop()
+
+
+async def test_password_users_through_the_router(pki: Path, tmp_path: Path) -> None:
+    """A user without a certificate logs in with a password over the router's TLS (no
+    client certificate asked): the same access list, by username; a wrong password is
+    refused at the link."""
+    endpoint = f"tls/127.0.0.1:{free_port()}"
+    (tmp_path / "passwords").write_text(f"alice:s3cret\nbob:b0b\n{RIG}:r1g\n")
+    router = tmp_path / "router.toml"
+    router.write_text(
+        f'rig = "{RIG}"\nlisten = ["{endpoint}"]\nusers = "{pki / "users.toml"}"\n'
+        f'passwords = "{tmp_path / "passwords"}"\nmtls = false\n'
+        + "".join(f'{k} = "{v}"\n' for k, v in _tls(pki, "router").items())
+    )
+    started = [await spawn(["--config", str(router)], tmp_path / "router.log", command="router")]
+    try:
+        config = tmp_path / "cyborgd.toml"
+        # Once the router asks passwords, every peer gives one: the rig too.
+        keys = {"mode": "client", "connect": [endpoint], "user": RIG, "password": "r1g"}
+        keys |= _tls(pki, RIG)
+        config.write_text(simulated_config(RIG, tmp_path / "archive", time_scale=8, zenoh=keys))
+        started.append(await spawn(["--config", str(config)], tmp_path / "cyborgd.log"))
+        ca = str(pki / "ca.crt")
+        with _client(endpoint, "alice", tls_ca=ca, user="alice", password="s3cret") as alice:
+            await alice.wait_alive()
+            await alice.command(TakeControl())
+            assert (await alice.command(SurveyStatus())).controller == "alice"
+        wrong = Transport("client", (), (endpoint,), tls_ca=ca, user="alice", password="guess")
+        with pytest.raises(zenoh.ZError):
+            zenoh.open(zenoh.Config.from_json5(wrong.json5())).close()
+    finally:
+        for process in reversed(started):
+            await process.stop()
