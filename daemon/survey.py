@@ -36,6 +36,7 @@ from .analyze import analyse_into
 from .archive import MANIFEST, Archive, ArchiveError, Station
 from .camera import CameraError, Frame
 from .config import SurveyConfig
+from .memory import SessionMemory, phrase
 from .ptu import PtuError, PtuLimitError, PtuPosition
 from .ptu.geometry import CameraModel, MosaicGeometry
 from .report import write_report
@@ -105,6 +106,8 @@ class Survey:
         self._result: InterestResult | None = None
         self._analysis_estimate = 1.0
         self._last_centre: tuple[float, float] | None = None
+        self.memory = SessionMemory()
+        """What this session's earlier stations showed (novelty against history)."""
 
     # -- commands ----------------------------------------------------------------------
 
@@ -140,6 +143,7 @@ class Survey:
         ap = self._approach
         if not ap.session:
             ap.session, ap.index = self.archive.new_session(), 0
+            self.memory.clear()
         ap.index += 1
         plan = {
             "rows": req.rows,
@@ -353,12 +357,13 @@ class Survey:
             )
             timing["analysis_s"] = self._analysis_estimate = time.perf_counter() - ta
             station.publish_analysis()
-            points = self._points(doc, geometry)
+            points = await asyncio.to_thread(self._recall, self._points(doc, geometry), doc, mosaic)
             station.update(points=[p.to_body() for p in points], products=doc["products"])
             await self._chips(station, points, timing)
             timing["wall_s"] = time.perf_counter() - t0
             station.update(timing=timing)
             station.finish("complete")
+            await asyncio.to_thread(self.memory.remember, station.name, mosaic)
             await self._report(station)  # current by the time anyone hears of the result
             self._result = InterestResult(self.station_id, tuple(points), *geometry.size)
             self.state = "awaiting-choice"
@@ -479,6 +484,22 @@ class Survey:
                 )
             )
         return points
+
+    def _recall(
+        self, points: list[InterestPoint], doc: dict[str, Any], mosaic: np.ndarray
+    ) -> list[InterestPoint]:
+        """Each point against what the session's earlier stations showed: its novelty, and
+        a clause for its explanation ("new since st01-300m" or "seen at st02-60m")."""
+        if not self.memory.stations:
+            return points
+        first = self.memory.stations[0][0]
+        radii = {p["rank"]: p.get("radius", 4.0) for p in doc["points"]}
+        out = []
+        for p in points:
+            found = self.memory.novelty(mosaic, p.x, p.y, radii.get(p.rank, 4.0))
+            why = "; ".join(part for part in (p.why, phrase(found, first)) if part)
+            out.append(replace(p, why=why, novelty=round(found[0], 2) if found else None))
+        return out
 
     async def _chips(
         self, station: Station, points: list[InterestPoint], timing: dict[str, float]

@@ -201,6 +201,9 @@ class InterestPoint(Message):
     """Degrees above the horizon, the head's level offset applied (2.1)."""
     radius_deg: float | None = None
     """The target's angular radius, degrees (2.1): how big it is, not just where."""
+    novelty: float | None = None
+    """Colour difference (ΔE) from the nearest colour earlier stations of the session
+    showed (2.1); None at a session's first station."""
 
 
 @dataclass(frozen=True)

@@ -183,3 +183,23 @@ async def test_the_next_station_is_aimed_and_sized_by_the_target(engine) -> None
     assert (plan["rows"], plan["cols"]) == (fit["rows"], fit["cols"])
     assert (plan["pan0"], plan["tilt0"]) == (best.pan, best.tilt)
     await survey._task
+
+
+async def test_points_are_judged_against_what_earlier_stations_showed(engine) -> None:
+    """The session's first station has no history; from the second on, each point carries
+    its colour difference from what was seen before, and says so in plain words."""
+    survey, _, _ = engine
+    survey.start(SurveyStart(rows=1, cols=2), "tester")
+    await survey._task
+    first = survey._result
+    assert all(p.novelty is None for p in first.points)
+    await survey.choose(ChooseTarget(first.station, 1), "tester")
+    survey.start(SurveyStart(rows=1, cols=2), "tester")
+    await survey._task
+    second = survey._result
+    name = first.station.split("/")[1]
+    for p in second.points:
+        assert p.novelty is not None and p.novelty >= 0
+        assert p.why.endswith((f"new since {name}", f"seen at {name}")), p.why
+    manifest = survey.station.manifest["points"]
+    assert [m["novelty"] for m in manifest] == [p.novelty for p in second.points]

@@ -1,0 +1,78 @@
+"""Memory across stations: what the session's earlier stations showed, so a candidate can be
+called new or already seen (novelty against history, as rover science autonomy ranks
+targets against earlier sols; the seed's authors asked for this memory when walking closer).
+
+Each station leaves a palette: the 8 main colours of its mosaic in CIE Lab (k-means on a
+reduced copy). A new point's novelty is the colour difference (ΔE, CIE76) from its patch's
+colour to the nearest colour any earlier station showed: small, the same stuff seen from
+further away; large, something the walk has revealed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+__all__ = ["NEW_DE", "SessionMemory", "phrase"]
+
+NEW_DE = 20.0
+"""ΔE above which a colour counts as not seen before (about twice the difference most
+people call clearly different)."""
+PALETTE = 8
+_SAMPLE = 96
+"""Longest side of the mosaic copy the palette is learnt on."""
+
+
+def _lab(bgr: np.ndarray) -> np.ndarray:
+    """Float Lab (L 0..100, a, b about -128..127) of uint8 BGR pixels, (..., 3)."""
+    lab = cv2.cvtColor(bgr.astype(np.float32) / 255.0, cv2.COLOR_BGR2LAB)
+    return lab.reshape(-1, 3)
+
+
+@dataclass
+class SessionMemory:
+    stations: list[tuple[str, np.ndarray]] = field(default_factory=list)
+    """(station name, its palette: (PALETTE, 3) Lab)."""
+
+    def remember(self, station: str, mosaic: np.ndarray) -> None:
+        rows, cols = mosaic.shape[:2]
+        scale = _SAMPLE / max(rows, cols)
+        f = min(scale, 1.0)
+        small = cv2.resize(mosaic, None, fx=f, fy=f, interpolation=cv2.INTER_AREA)
+        lab = _lab(small)
+        k = min(PALETTE, len(lab))
+        criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 20, 0.5)
+        cv2.setRNGSeed(0)
+        _, _, centres = cv2.kmeans(lab, k, None, criteria, 2, cv2.KMEANS_PP_CENTERS)
+        self.stations.append((station, centres))
+
+    def novelty(
+        self, mosaic: np.ndarray, x: float, y: float, radius: float
+    ) -> tuple[float, str] | None:
+        """(ΔE to the nearest colour seen before, the station that showed it) for the patch
+        of ``radius`` pixels around (x, y); None before any station was remembered."""
+        if not self.stations:
+            return None
+        rows, cols = mosaic.shape[:2]
+        r = max(1, round(radius * 0.7))  # the patch's core, not its rim
+        x0, x1 = max(0, round(x) - r), min(cols, round(x) + r + 1)
+        y0, y1 = max(0, round(y) - r), min(rows, round(y) + r + 1)
+        colour = _lab(mosaic[y0:y1, x0:x1]).mean(axis=0)
+        best = min(
+            (float(np.linalg.norm(palette - colour, axis=1).min()), name)
+            for name, palette in self.stations
+        )
+        return best
+
+    def clear(self) -> None:
+        self.stations.clear()
+
+
+def phrase(novelty: tuple[float, str] | None, first: str) -> str:
+    """The explanation's clause: ``new since st01-300m`` or ``seen at st01-300m``."""
+    if novelty is None:
+        return ""
+    delta, station = novelty
+    return f"new since {first}" if delta > NEW_DE else f"seen at {station}"
