@@ -39,6 +39,7 @@ from .config import SurveyConfig
 from .memory import SessionMemory, phrase
 from .ptu import PtuError, PtuLimitError, PtuPosition
 from .ptu.geometry import CameraModel, MosaicGeometry
+from .register import register
 from .report import write_report
 from .rig import Rig
 from .site import Orientation
@@ -350,6 +351,7 @@ class Survey:
         timing: dict[str, float] = {"predicted_motion_s": 0.0, "grab_s": 0.0}
         try:
             mosaic = await self._acquire(station, geometry, timing)
+            await self._register(station, geometry, mosaic)
             self._progress("analysis", 0, 1)
             ta = time.perf_counter()
             doc = await self.worker.call(
@@ -484,6 +486,34 @@ class Survey:
                 )
             )
         return points
+
+    async def _register(
+        self, station: Station, geometry: MosaicGeometry, mosaic: np.ndarray
+    ) -> None:
+        """Register the station to the one it was aimed from (daemon.register); the
+        record, residual included, goes in its manifest. A failure is noted, not raised."""
+        ap = self._approach
+        if ap.aim is None or not ap.aimed_from:
+            return
+        previous = ap.aimed_from.split("#")[0]
+        session, _, name = previous.partition("/")
+        walk = 1.0 if self._magnification() > 1.0 else self.cfg.approach[ap.leg - 1] / self.distance
+        try:
+            old_geo = self.geometry_of(previous)
+            png = self.archive.read(session, f"{name}/mosaic.png", 1 << 26)
+            old = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR)
+            if old is None:
+                raise ArchiveError(f"{previous}: unreadable mosaic")
+            record = await asyncio.to_thread(
+                functools.partial(register, target=ap.aim, walk=walk),
+                old,
+                old_geo,
+                mosaic,
+                geometry,
+            )
+        except (ArchiveError, cv2.error, ValueError) as exc:
+            record = {"note": f"not registered: {exc}"}
+        station.update(registration={"from": previous, **record})
 
     def _recall(
         self, points: list[InterestPoint], doc: dict[str, Any], mosaic: np.ndarray

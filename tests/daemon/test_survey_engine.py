@@ -4,6 +4,7 @@ was written."""
 
 from __future__ import annotations
 
+import dataclasses
 import errno
 import json
 from pathlib import Path
@@ -203,3 +204,20 @@ async def test_points_are_judged_against_what_earlier_stations_showed(engine) ->
         assert p.why.endswith((f"new since {name}", f"seen at {name}")), p.why
     manifest = survey.station.manifest["points"]
     assert [m["novelty"] for m in manifest] == [p.novelty for p in second.points]
+
+
+async def test_a_station_is_registered_to_the_one_it_was_aimed_from(engine) -> None:
+    """Predicted from geometry (the same tripod: directions are unchanged), refined by image
+    registration; the residual is small and reported with the correlation reached."""
+    survey, _, _ = engine
+    survey.cfg = dataclasses.replace(survey.cfg, simulate_approach=True)  # the lens "walks"
+    survey.start(SurveyStart(rows=2, cols=3), "tester")
+    await survey._task
+    first = survey._result
+    await survey.choose(ChooseTarget(first.station, 1), "tester")
+    survey.start(SurveyStart(rows=1, cols=2), "tester")
+    await survey._task
+    reg = survey.station.manifest["registration"]
+    assert reg["from"] == first.station and reg["prediction"] == "zoom"
+    assert reg["overlap"] > 0.5 and reg["correlation"] > 0.5, reg
+    assert reg["shift_deg"] < 0.5 and reg["scale"] == pytest.approx(1.0, abs=0.05)
