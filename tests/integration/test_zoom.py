@@ -53,7 +53,7 @@ async def test_choosing_zooms_on_the_target_instead_of_walking(
         assert "60 m" in ack.detail
         manifest = Path(daemon.ready["archive"]) / result.station / "manifest.json"
         zoom = json.loads(manifest.read_text())["choice"]["zoom"]
-        assert zoom["level"] == 5.0 and "seconds" in zoom  # 300 m -> 60 m, and how long
+        assert zoom["level"] == 5.0 and "seconds" in zoom  # 300 m to 60 m, and its time
         assert lens.position == round(0x4000 * np.log(5.0) / np.log(30.0))
     finally:
         await lens.close()
