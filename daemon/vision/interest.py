@@ -34,7 +34,7 @@ from .cooccurrence import Segmentation
 from .params import VisionParams
 from .uncommon import uncommon_map
 
-__all__ = ["InterestMap", "InterestPoint", "find_points", "interest_map", "summed_uncommon"]
+__all__ = ["InterestMap", "InterestPoint", "find_points", "fuse", "interest_map", "summed_uncommon"]
 
 
 @dataclass(frozen=True)
@@ -100,7 +100,10 @@ def summed_uncommon(
 
 
 def interest_map(
-    segs: tuple[Segmentation, ...], params: VisionParams, total: np.ndarray | None = None
+    segs: tuple[Segmentation, ...],
+    params: VisionParams,
+    total: np.ndarray | None = None,
+    texture: np.ndarray | None = None,
 ) -> InterestMap:
     """Sum the H, S, I uncommon maps with their weights and blur with sigma B.
 
@@ -114,6 +117,8 @@ def interest_map(
 
     total : (M, N) float32 ndarray, optional
         :func:`summed_uncommon` of ``segs``, when the caller already has it.
+    texture : (M, N) float32 ndarray, optional
+        ``texture.texture_rarity`` of the image, fused in with ``texture_weight`` (:func:`fuse`).
 
     Returns
     -------
@@ -141,18 +146,44 @@ def interest_map(
     typical = np.float32(np.median(total[::step, ::step]))
     sigma = params.sigma((rows, cols))
     f = _factor(sigma, (rows, cols), params.exact_blur)
-    if f > 1:
-        pad_r, pad_c = (-rows) % f, (-cols) % f
-        if pad_r or pad_c:
-            total = cv2.copyMakeBorder(total, 0, pad_r, 0, pad_c, cv2.BORDER_REFLECT_101)
-        total = cv2.resize(
-            total, (total.shape[1] // f, total.shape[0] // f), interpolation=cv2.INTER_AREA
+    blurred = _blur(_reduce(total, f) - typical, sigma, f)
+    grid = blurred
+    if params.isotropy > 0:
+        grid = blurred * _roundness(blurred, sigma / f, params.isotropy)
+    if texture is not None and params.texture_weight > 0:
+        rare = _blur(
+            _reduce(texture, f) - np.median(texture[::step, ::step]), sigma * params.texture_blur, f
         )
-    blurred = _blur(total - typical, sigma, f)
-    if params.isotropy == 0:
-        return InterestMap(blurred, f, (rows, cols))
-    grid = blurred * _roundness(blurred, sigma / f, params.isotropy)
-    return InterestMap(grid, f, (rows, cols), blurred)
+        blurred = fuse(grid, rare, params.texture_weight)
+        grid = blurred
+        if params.fused_isotropy > 0:
+            grid = blurred * _roundness(blurred, sigma / f, params.fused_isotropy)
+    return InterestMap(grid, f, (rows, cols), None if grid is blurred else blurred)
+
+
+def fuse(uncommon: np.ndarray, texture: np.ndarray, weight: float) -> np.ndarray:
+    """uncommon + weight x texture, each first put on one scale: 0 at its median, 1 at its
+    99.5th percentile (where the few rarest areas start), so the weight is a share whatever
+    the units (uncommon values; squared Mahalanobis distances)."""
+
+    def unit(grid: np.ndarray) -> np.ndarray:
+        low, high = np.percentile(grid, (50.0, 99.5))
+        return (grid - np.float32(low)) * np.float32(1.0 / (high - low + 1e-6))
+
+    return cv2.scaleAdd(unit(texture), weight, unit(uncommon))
+
+
+def _reduce(image: np.ndarray, f: int) -> np.ndarray:
+    """Mean over f x f blocks (the frame padded by reflection to a multiple of f)."""
+    if f == 1:
+        return image
+    rows, cols = image.shape
+    pad_r, pad_c = (-rows) % f, (-cols) % f
+    if pad_r or pad_c:
+        image = cv2.copyMakeBorder(image, 0, pad_r, 0, pad_c, cv2.BORDER_REFLECT_101)
+    return cv2.resize(
+        image, (image.shape[1] // f, image.shape[0] // f), interpolation=cv2.INTER_AREA
+    )
 
 
 def _blur(grid: np.ndarray, sigma: float, f: int) -> np.ndarray:

@@ -84,6 +84,23 @@ class VisionParams:
     plane_weights: tuple[float, float, float] = (1.0, 1.0, 1.0)
     """Weights of the H, S, I uncommon maps in the interest sum."""
 
+    # Texture rarity (``texture``), fused with the uncommon interest
+    texture_weight: float = 0.0
+    """Weight of texture rarity against the uncommon interest (0: the seed's H, S, I only).
+    Both blurred maps are put on one scale first: 0 at their median, 1 at their 99.5th
+    percentile (``interest.fuse``)."""
+    texture_scales: tuple[float, ...] = (1.5, 4.0)
+    """Gaussian sigmas (analysed pixels) of the local mean and contrast descriptors."""
+    texture_trim: float = 0.25
+    """Share of pixels each concentration step leaves out of the robust texture model."""
+    texture_steps: int = 2
+    """Concentration steps of the robust fit (0: plain mean and covariance)."""
+    texture_blur: float = 2.0
+    """Texture rarity is blurred with this many times the interest sigma: texture is a
+    property of an area, and per-pixel rarity is speckled."""
+    fused_isotropy: float = 0.0
+    """``isotropy`` applied once more to the fused map (texture rarity has none of its own)."""
+
     # Interest map and points
     blur: float = 10.0
     """B, in analysed-image pixels."""
@@ -135,6 +152,12 @@ class VisionParams:
             raise ValueError("valley in [0, 1), max_pixels >= 0")
         if self.blur_mode not in ("sigma", "fwhm"):
             raise ValueError(f"unknown blur mode {self.blur_mode!r}")
+        if self.texture_weight < 0 or self.texture_blur <= 0 or not 0 <= self.fused_isotropy <= 1:
+            raise ValueError("texture_weight >= 0, texture_blur > 0, fused_isotropy in [0, 1]")
+        if not self.texture_scales or min(self.texture_scales) <= 0 or self.texture_steps < 0:
+            raise ValueError("texture_scales must be positive sigmas; texture_steps >= 0")
+        if not 0 <= self.texture_trim < 1:
+            raise ValueError("texture_trim must be in [0, 1)")
         if len(self.plane_weights) != 3 or min(self.plane_weights) < 0:
             raise ValueError("plane_weights needs three non-negative weights")
 
@@ -208,7 +231,14 @@ and images (``bench/quality.py`` seeds 1000+, ``bench/real.py``) and is reported
   diagonal nothing a point could find is lost.
 """
 
-PROFILES: dict[str, VisionParams] = {"paper": PAPER, "default": DEFAULT}
+FIELD = DEFAULT.replace(texture_weight=3.5, fused_isotropy=0.6, blur_fraction=0.012)
+"""``default`` plus texture rarity (``texture``), for single photographs of real ground.
+On the real dev sets it measured top-1 48 % / any of 3 73 % / repeat 94 % pooled, against
+37 / 62 / 77 for ``default`` and 37 / 57 / 95 for the best baseline; on the synthetic
+regimes it gives up tiny-target top-1 (95 -> 75 %) for veins (12 -> 80 %). Opt-in until one
+profile wins both."""
+
+PROFILES: dict[str, VisionParams] = {"paper": PAPER, "default": DEFAULT, "field": FIELD}
 
 
 def profile(name: str) -> VisionParams:

@@ -13,6 +13,7 @@ from .explain import explain_points, plain_lines
 from .hsi import HSIPlanes, hue_histogram_rotation, rgb_to_hsi
 from .interest import InterestMap, InterestPoint, find_points, interest_map, summed_uncommon
 from .params import VisionParams
+from .texture import texture_rarity
 from .uncommon import uncommon_map
 
 __all__ = ["Analysis", "analyze", "as_bgr8"]
@@ -115,7 +116,8 @@ def analyze(bgr: np.ndarray, params: VisionParams) -> Analysis:
     t2 = time.perf_counter()
     timings["segment"] = (t2 - t1) * 1e3
     maps = [uncommon_map(seg, params) for seg in segs]
-    imap = interest_map(segs, params, summed_uncommon(segs, params, maps))
+    texture = texture_rarity(bgr, params) if params.texture_weight > 0 else None
+    imap = interest_map(segs, params, summed_uncommon(segs, params, maps), texture)
     points = find_points(imap, params)
     t3 = time.perf_counter()
     timings["interest"] = (t3 - t2) * 1e3

@@ -1,0 +1,51 @@
+"""Texture rarity and the ``field`` profile: a crack in grain, found; bad parameters refused."""
+
+import numpy as np
+import pytest
+
+from daemon.vision.params import FIELD, VisionParams
+from daemon.vision.pipeline import analyze
+from daemon.vision.texture import texture_rarity
+
+
+def _road(seed: int = 3) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    grain = rng.normal(120, 12, (120, 160)).clip(0, 255).astype(np.uint8)
+    img = np.repeat(grain[:, :, None], 3, axis=2)
+    for x in range(40, 120):  # a thin dark crack, rare only in its neighbourhood's texture
+        y = 60 + int(6 * np.sin(x / 9.0))
+        img[y : y + 2, x] = 55
+    return img
+
+
+def test_crack_in_grain_is_the_rarest_texture() -> None:
+    rare = texture_rarity(_road(), FIELD)
+    assert np.isfinite(rare).all()
+    assert float(rare[60:68, 40:120].max()) > 5 * float(np.median(rare))
+
+
+def test_field_profile_finds_the_crack_and_is_deterministic() -> None:
+    img = _road()
+    first, second = analyze(img, FIELD), analyze(img.copy(), FIELD)
+    assert [(p.x, p.y) for p in first.points] == [(p.x, p.y) for p in second.points]
+    best = first.points[0]
+    assert 35 <= best.x <= 125 and 50 <= best.y <= 72
+
+
+def test_flat_image_has_no_points_with_texture() -> None:
+    assert analyze(np.full((40, 50, 3), 90, np.uint8), FIELD).points == []
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        {"texture_weight": -1.0},
+        {"texture_trim": 1.0},
+        {"texture_scales": ()},
+        {"texture_blur": 0.0},
+        {"fused_isotropy": 2.0},
+    ],
+)
+def test_bad_texture_parameters_are_refused(bad: dict) -> None:
+    with pytest.raises(ValueError):
+        VisionParams(**bad)
