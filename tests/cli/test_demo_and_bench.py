@@ -33,6 +33,7 @@ def test_quality_benchmark_smoke():
         assert set(table) == {
             "default",
             "paper",
+            "field",
             "spectral-residual",
             "colour-rarity",
             "rx-anomaly",
