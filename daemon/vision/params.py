@@ -233,10 +233,10 @@ and images (``bench/quality.py`` seeds 1000+, ``bench/real.py``) and is reported
 
 FIELD = DEFAULT.replace(texture_weight=3.5, fused_isotropy=0.6, blur_fraction=0.012)
 """``default`` plus texture rarity (``texture``), for single photographs of real ground.
-On the real dev sets it measured top-1 48 % / any of 3 73 % / repeat 94 % pooled, against
-37 / 62 / 77 for ``default`` and 37 / 57 / 95 for the best baseline; on the synthetic
-regimes it gives up tiny-target top-1 (95 -> 75 %) for veins (12 -> 80 %). Opt-in until one
-profile wins both."""
+``bench/real.py``, pooled: top-1 47.6 % / any of 3 73.5 % / repeat 91.6 %, against 37.2 / 62.2 /
+71.5 for ``default`` and 37.2 / 57.1 for the best baselines. ``bench/quality.py``: tiny-target
+top-1 94.2 -> 82.5 %, veins 8.3 -> 70.8 %; about 5x slower. Opt-in until one profile wins
+everywhere."""
 
 PROFILES: dict[str, VisionParams] = {"paper": PAPER, "default": DEFAULT, "field": FIELD}
 
