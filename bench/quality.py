@@ -57,7 +57,7 @@ from daemon.analyze import analyze_image, input_points
 from daemon.regimes import DESCRIPTIONS, REGIMES, seed_cliff
 from daemon.scene import Scene
 from daemon.vision.interest import InterestPoint
-from daemon.vision.params import DEFAULT, FIELD, PAPER, VisionParams
+from daemon.vision.params import DEFAULT, PAPER, UNCOMMON, VisionParams
 
 Method = Callable[[Scene, np.random.Generator], list[InterestPoint]]
 
@@ -92,7 +92,7 @@ def methods() -> dict[str, Method]:
     return {
         "default": pipeline_method(DEFAULT),
         "paper": pipeline_method(PAPER),
-        "field": pipeline_method(FIELD),
+        "uncommon": pipeline_method(UNCOMMON),
         "spectral-residual": lambda s, _r: points_from_map(spectral_residual(s.image), False),
         "colour-rarity": lambda s, _r: points_from_map(colour_rarity(s.image), True),
         "rx-anomaly": lambda s, _r: points_from_map(rx_anomaly(s.image), True),

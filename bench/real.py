@@ -61,7 +61,7 @@ from bench.baselines import (
 from daemon.analyze import analyze_image, input_points
 from daemon.imageio import ImageError, read_image
 from daemon.vision.interest import InterestPoint
-from daemon.vision.params import DEFAULT, FIELD, PAPER, VisionParams
+from daemon.vision.params import DEFAULT, PAPER, UNCOMMON, VisionParams
 from daemon.vision.pipeline import as_bgr8
 
 HIT_SHARE = 0.015
@@ -109,7 +109,7 @@ def methods() -> dict[str, Method]:
     return {
         "default": pipeline_method(DEFAULT),
         "paper": pipeline_method(PAPER),
-        "field": pipeline_method(FIELD),
+        "uncommon": pipeline_method(UNCOMMON),
         "spectral-residual": from_map(lambda img: spectral_residual(as_bgr8(img)), False),
         "colour-rarity": from_map(colour_rarity, True),
         "rx-anomaly": from_map(lambda img: rx_anomaly(as_bgr8(img)), True),

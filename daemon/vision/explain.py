@@ -20,7 +20,14 @@ from .interest import InterestPoint
 from .params import VisionParams
 from .uncommon import uncommon_map
 
-__all__ = ["PLANE_NAMES", "colour_name", "describe", "explain_points", "plain_lines"]
+__all__ = [
+    "PLANE_NAMES",
+    "colour_name",
+    "describe",
+    "explain_points",
+    "plain_lines",
+    "texture_clause",
+]
 
 PLANE_NAMES = ("H", "S", "I")
 
@@ -127,6 +134,7 @@ def explain_points(
     segs: tuple[Segmentation, ...],
     params: VisionParams,
     maps: list[np.ndarray] | None = None,
+    texture: np.ndarray | None = None,
 ) -> list[list[dict]]:
     """Say, for each point, which planes and classes made it interesting.
 
@@ -134,6 +142,9 @@ def explain_points(
     uncommon map around the point, which is exactly what the blur summed) and the class that
     contributed most there (rank k of K, its value, its share of the image and its mean
     uncommon value there). ``maps`` are the planes' uncommon maps, when the caller has them.
+    With ``texture`` (``texture.texture_rarity``, fused in with ``texture_weight``) a last
+    entry gives the texture rarity around the point (squared robust standard deviations,
+    weighted as the fusion blurred it) and the share of the image whose texture is commoner.
     """
     if not points:
         return []
@@ -142,6 +153,8 @@ def explain_points(
     rad = max(1, math.ceil(2.5 * sigma))
     if maps is None:
         maps = [uncommon_map(seg, params) for seg in segs]
+    step = max(1, math.isqrt(rows * cols // _SAMPLE))
+    ranked = np.sort(texture[::step, ::step], axis=None) if texture is not None else None
     out = []
     for point in points:
         x, y = round(point.x), round(point.y)
@@ -174,8 +187,48 @@ def explain_points(
                     }
                 )
             planes.append(entry)
+        if texture is not None and params.texture_weight > 0:
+            planes.append(_texture_entry(texture, point, sigma * params.texture_blur, ranked))
         out.append(planes)
     return out
+
+
+def _texture_entry(
+    texture: np.ndarray, point: InterestPoint, sigma: float, ranked: np.ndarray
+) -> dict:
+    """The texture rarity around ``point`` (Gaussian-weighted, sigma) and its rank among
+    the image's pixels (``ranked``: a sorted sample of the rarity)."""
+    rows, cols = texture.shape
+    rad = max(1, math.ceil(2.5 * sigma))
+    x, y = round(point.x), round(point.y)
+    r0, r1 = max(0, y - rad), min(rows, y + rad + 1)
+    c0, c1 = max(0, x - rad), min(cols, x + rad + 1)
+    yy, xx = np.mgrid[r0:r1, c0:c1]
+    kernel = np.exp(-((yy - point.y) ** 2 + (xx - point.x) ** 2) / (2.0 * sigma**2))
+    rarity = float((texture[r0:r1, c0:c1] * kernel).sum() / kernel.sum())
+    commoner = float(np.searchsorted(ranked, rarity)) / max(len(ranked), 1)
+    return {"plane": "texture", "rarity": round(rarity, 3), "rarer_than": round(commoner, 4)}
+
+
+def texture_clause(explanation: list[dict]) -> str:
+    """The plain-language words on texture for a point's line, "" when it is not rare.
+
+    Examples
+    --------
+    >>> texture_clause([{"plane": "texture", "rarity": 31.0, "rarer_than": 0.987}])
+    '; texture rarer than 99 % of the image'
+    >>> texture_clause([{"plane": "I", "contribution": 3.0}])
+    ''
+    """
+    for e in explanation:
+        if e["plane"] == "texture" and e["rarer_than"] >= _RARE_TEXTURE:
+            return f"; texture rarer than {100 * e['rarer_than']:.0f} % of the image"
+    return ""
+
+
+_RARE_TEXTURE = 0.9
+"""A point's surroundings count as of rare texture when 9 in 10 of the image's pixels have
+commoner texture."""
 
 
 def _natural_value(plane: str, value: int) -> float:
@@ -186,7 +239,7 @@ def _natural_value(plane: str, value: int) -> float:
 def describe(explanation: list[dict]) -> str:
     """The numeric explanation in one line, strongest plane first."""
     parts = []
-    for e in sorted(explanation, key=lambda e: -e["contribution"]):
+    for e in sorted(explanation, key=lambda e: -e.get("contribution", 0.0)):
         if "class" not in e:
             continue
         value = e["value"] if isinstance(e["value"], str) else f"{e['value']:g}"
@@ -195,4 +248,9 @@ def describe(explanation: list[dict]) -> str:
             f"{e['plane']} class {e['class']}/{e['classes']} ({value}{unit}, "
             f"{100 * e['area_fraction']:.2g}% of image) +{e['contribution']:.1f}"
         )
-    return "; ".join(parts) if parts else "no segmented class nearby"
+    summary = "; ".join(parts) if parts else "no segmented class nearby"
+    texture = [e for e in explanation if e["plane"] == "texture"]
+    if texture:
+        rarity, share = texture[0]["rarity"], 100 * texture[0]["rarer_than"]
+        summary += f"; texture rarity {rarity:.3g} (rarer than {share:.0f}% of image)"
+    return summary

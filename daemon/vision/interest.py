@@ -164,13 +164,20 @@ def interest_map(
 def fuse(uncommon: np.ndarray, texture: np.ndarray, weight: float) -> np.ndarray:
     """uncommon + weight x texture, each first put on one scale: 0 at its median, 1 at its
     99.5th percentile (where the few rarest areas start), so the weight is a share whatever
-    the units (uncommon values; squared Mahalanobis distances)."""
+    the units (uncommon values; squared Mahalanobis distances). A texture spread under
+    ``_NO_TEXTURE`` is rounding, not contrast, and is not stretched to 1."""
 
-    def unit(grid: np.ndarray) -> np.ndarray:
+    def unit(grid: np.ndarray, floor: float) -> np.ndarray:
         low, high = np.percentile(grid, (50.0, 99.5))
-        return (grid - np.float32(low)) * np.float32(1.0 / (high - low + 1e-6))
+        return (grid - np.float32(low)) * np.float32(1.0 / max(high - low, floor))
 
-    return cv2.scaleAdd(unit(texture), weight, unit(uncommon))
+    return cv2.scaleAdd(unit(texture, _NO_TEXTURE), weight, unit(uncommon, 1e-6))
+
+
+_NO_TEXTURE = 0.1
+"""Squared robust standard deviations: blurred texture rarity that spreads less than this
+between its median and its 99.5th percentile has no contrast worth a point (a flat image
+gives ~1e-9 of float rounding)."""
 
 
 def _reduce(image: np.ndarray, f: int) -> np.ndarray:

@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 
 from .cooccurrence import Segmentation, segment_plane
-from .explain import explain_points, plain_lines
+from .explain import explain_points, plain_lines, texture_clause
 from .hsi import HSIPlanes, hue_histogram_rotation, rgb_to_hsi
 from .interest import InterestMap, InterestPoint, find_points, interest_map, summed_uncommon
 from .params import VisionParams
@@ -121,8 +121,11 @@ def analyze(bgr: np.ndarray, params: VisionParams) -> Analysis:
     points = find_points(imap, params)
     t3 = time.perf_counter()
     timings["interest"] = (t3 - t2) * 1e3
-    explanations = explain_points(points, segs, params, maps)
-    descriptions = plain_lines(points, hsi)
+    explanations = explain_points(points, segs, params, maps, texture)
+    descriptions = [
+        line + texture_clause(expl)
+        for line, expl in zip(plain_lines(points, hsi), explanations, strict=True)
+    ]
     timings["explain"] = (time.perf_counter() - t3) * 1e3
     timings["total"] = (time.perf_counter() - t0) * 1e3
     return Analysis(hsi, segs, imap, points, explanations, descriptions, params, timings)

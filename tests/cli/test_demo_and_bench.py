@@ -33,7 +33,7 @@ def test_quality_benchmark_smoke():
         assert set(table) == {
             "default",
             "paper",
-            "field",
+            "uncommon",
             "spectral-residual",
             "colour-rarity",
             "rx-anomaly",

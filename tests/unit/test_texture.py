@@ -1,9 +1,11 @@
-"""Texture rarity and the ``field`` profile: a crack in grain, found; bad parameters refused."""
+"""Texture rarity and the ``default`` profile: a crack in grain, found and explained; bad
+parameters refused."""
 
 import numpy as np
 import pytest
 
-from daemon.vision.params import FIELD, VisionParams
+from daemon.vision.explain import describe
+from daemon.vision.params import DEFAULT, UNCOMMON, VisionParams
 from daemon.vision.pipeline import analyze
 from daemon.vision.texture import texture_rarity
 
@@ -19,21 +21,34 @@ def _road(seed: int = 3) -> np.ndarray:
 
 
 def test_crack_in_grain_is_the_rarest_texture() -> None:
-    rare = texture_rarity(_road(), FIELD)
+    rare = texture_rarity(_road(), DEFAULT)
     assert np.isfinite(rare).all()
     assert float(rare[60:68, 40:120].max()) > 5 * float(np.median(rare))
 
 
-def test_field_profile_finds_the_crack_and_is_deterministic() -> None:
+def test_default_profile_finds_the_crack_and_is_deterministic() -> None:
     img = _road()
-    first, second = analyze(img, FIELD), analyze(img.copy(), FIELD)
+    first, second = analyze(img, DEFAULT), analyze(img.copy(), DEFAULT)
     assert [(p.x, p.y) for p in first.points] == [(p.x, p.y) for p in second.points]
     best = first.points[0]
     assert 35 <= best.x <= 125 and 50 <= best.y <= 72
 
 
+def test_the_crack_is_explained_by_its_texture() -> None:
+    res = analyze(_road(), DEFAULT)
+    texture = res.explanations[0][-1]
+    assert texture["plane"] == "texture" and texture["rarer_than"] >= 0.9
+    assert "texture rarer than" in res.descriptions[0]
+    assert "texture rarity" in describe(res.explanations[0])
+
+
+def test_profiles_without_texture_do_not_explain_it() -> None:
+    res = analyze(_road(), UNCOMMON)
+    assert all(e["plane"] != "texture" for expl in res.explanations for e in expl)
+
+
 def test_flat_image_has_no_points_with_texture() -> None:
-    assert analyze(np.full((40, 50, 3), 90, np.uint8), FIELD).points == []
+    assert analyze(np.full((40, 50, 3), 90, np.uint8), DEFAULT).points == []
 
 
 @pytest.mark.parametrize(
@@ -43,6 +58,7 @@ def test_flat_image_has_no_points_with_texture() -> None:
         {"texture_trim": 1.0},
         {"texture_scales": ()},
         {"texture_blur": 0.0},
+        {"texture_surround": 3.0},
         {"fused_isotropy": 2.0},
     ],
 )
