@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo rig test bench bench-quality bench-real bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security lint clean
+.PHONY: demo rig test bench bench-quality bench-real bench-approach bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security lint clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -28,7 +28,7 @@ test: $(STAMP)
 	$(PY) -m ruff check .
 	$(PY) -m pytest -q
 
-bench: bench-quality bench-real bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security
+bench: bench-quality bench-real bench-approach bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security
 
 bench-quality: $(STAMP)
 	$(PY) -m bench.quality --scenes 120
@@ -36,6 +36,10 @@ bench-quality: $(STAMP)
 # Real labelled images from ../shared/data/real (or env CYBORG_REAL_DATA); says so if absent.
 bench-real: $(STAMP)
 	$(PY) -m bench.real
+
+# 30 simulated 300 -> 60 -> 10 m approaches on procedural worlds, memory on and off.
+bench-approach: $(STAMP)
+	$(PY) -m bench.approach --approaches 30
 
 bench-speed: $(STAMP)
 	$(PY) -m bench.speed

@@ -59,10 +59,9 @@ from bench.baselines import (
     spectral_residual,
 )
 from daemon.analyze import analyze_image, input_points
-from daemon.imageio import ImageError, read_image
+from daemon.imageio import ImageError, as_bgr8, read_image
 from daemon.vision.interest import InterestPoint
 from daemon.vision.params import DEFAULT, PAPER, UNCOMMON, VisionParams
-from daemon.vision.pipeline import as_bgr8
 
 HIT_SHARE = 0.015
 """Hit radius, as a share of the image diagonal."""

@@ -14,12 +14,12 @@ from typing import Any, TextIO
 import cv2
 import numpy as np
 
-from .imageio import ImageError, read_image, write_atomic, write_jpeg, write_png
+from .imageio import ImageError, as_bgr8, read_image, write_atomic, write_jpeg, write_png
 from .vision import render
 from .vision.explain import PLANE_NAMES, describe
 from .vision.interest import InterestPoint
 from .vision.params import VisionParams, profile
-from .vision.pipeline import Analysis, analyze, as_bgr8
+from .vision.pipeline import Analysis, analyze
 from .vision.uncommon import uncommon_map
 
 _LOGGER = logging.getLogger(__name__)
@@ -58,10 +58,14 @@ def working_reduction(shape: tuple[int, ...], params: VisionParams) -> float:
 
 
 def analyze_image(
-    image: np.ndarray, params: VisionParams, downsample: float | None = None
+    image: np.ndarray,
+    params: VisionParams,
+    downsample: float | None = None,
+    prior: np.ndarray | None = None,
 ) -> tuple[np.ndarray, Analysis]:
     """Normalise, reduce (as the seed did, 4-8x; by default to the profile's working size),
-    analyse; returns (bgr, analysis)."""
+    analyse (with ``prior`` weights over the same ground, ``pipeline.analyze``); returns
+    (bgr, analysis)."""
     bgr = as_bgr8(image)
     if downsample is None:
         downsample = working_reduction(bgr.shape, params)
@@ -70,7 +74,7 @@ def analyze_image(
         rows, cols = bgr.shape[:2]
         size = (max(1, int(cols / downsample)), max(1, int(rows / downsample)))
         work = cv2.resize(bgr, size, interpolation=cv2.INTER_AREA)
-    return bgr, analyze(work, params)
+    return bgr, analyze(work, params, prior)
 
 
 def _to_input(value: float, scale: float) -> float:
@@ -216,7 +220,14 @@ def analyze_files(
     return 1 if failed else 0
 
 
-def analyse_into(folder: str, image: np.ndarray, profile_name: str, label: str) -> dict[str, Any]:
-    """The vision worker's job: analyse a mosaic and write every product into ``folder``."""
-    bgr, res = analyze_image(image, profile(profile_name))
+def analyse_into(
+    folder: str,
+    image: np.ndarray,
+    profile_name: str,
+    label: str,
+    prior: np.ndarray | None = None,
+) -> dict[str, Any]:
+    """The vision worker's job: analyse a mosaic (weighted by ``prior``, memory across
+    stations) and write every product into ``folder``."""
+    bgr, res = analyze_image(image, profile(profile_name), prior=prior)
     return write_products(Path(folder), label, bgr, res, profile_name)

@@ -75,6 +75,10 @@ class SurveyConfig:
     zoom_on_target: bool = False
     """Intelligent zoom: on a choice, zoom on the target by the next leg's distance ratio
     instead of walking there (needs a camera with a zoom)."""
+    memory: float = 0.5
+    """Memory across stations: weight (0..1) of the prior a station's interest gets from the
+    station it was aimed from (what was judged common from afar, the chosen target's
+    surroundings; daemon.memory.station_prior); 0 turns it off."""
     pan0: float = 0.0
     """Centre of a survey nobody aimed (degrees), as the tripod was set up to face."""
     tilt0: float = 0.0
@@ -165,6 +169,7 @@ def validate(cfg: Config) -> Config:
             "survey.approach must list positive distances",
         ),
         (s.settle >= 0, "survey.settle must be >= 0"),
+        (0 <= s.memory <= 1, "survey.memory must be in [0, 1]"),
         (s.speed is None or s.speed > 0, "survey.speed must be > 0"),
         (0 < cfg.state_rate <= 50, "state_rate must be in (0, 50]"),
     ]

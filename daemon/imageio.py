@@ -11,7 +11,15 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-__all__ = ["MAX_PIXELS", "ImageError", "read_image", "write_atomic", "write_jpeg", "write_png"]
+__all__ = [
+    "MAX_PIXELS",
+    "ImageError",
+    "as_bgr8",
+    "read_image",
+    "write_atomic",
+    "write_jpeg",
+    "write_png",
+]
 
 MAX_PIXELS = 400_000_000
 """Refuse images above this many pixels (an 8000x4000 panorama is 32 M)."""
@@ -101,3 +109,33 @@ def _write_encoded(path: Path, image: np.ndarray, ext: str, flags: list[int]) ->
     if not ok:
         raise OSError(f"{path}: {ext[1:].upper()} encoding failed")
     write_atomic(path, buf.tobytes())
+
+
+def as_bgr8(image: np.ndarray) -> np.ndarray:
+    """Bring any decoded image to (M, N, 3) uint8 BGR: grey, alpha and 16-bit welcome.
+
+    Examples
+    --------
+    >>> as_bgr8(np.full((2, 2), 65535, np.uint16))[0, 0].tolist()
+    [255, 255, 255]
+    >>> as_bgr8(np.zeros((1, 1, 4), np.uint8)).shape
+    (1, 1, 3)
+    """
+    if image.ndim not in (2, 3) or image.size == 0:
+        raise ValueError(f"not an image: shape {image.shape}")
+    if image.dtype == np.uint16:
+        image = (image >> 8).astype(np.uint8)
+    elif image.dtype in (np.float32, np.float64):
+        image = np.clip(np.nan_to_num(image) * 255.0, 0, 255).astype(np.uint8)
+    elif image.dtype != np.uint8:
+        raise ValueError(f"unsupported pixel type {image.dtype}")
+    if image.ndim == 2:
+        return cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+    channels = image.shape[2]
+    if channels == 1:
+        return cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+    if channels == 3:
+        return np.ascontiguousarray(image)
+    if channels == 4:
+        return cv2.cvtColor(image, cv2.COLOR_BGRA2BGR)
+    raise ValueError(f"unsupported channel count {channels}")

@@ -6,6 +6,11 @@ Each station leaves a palette: the 8 main colours of its mosaic in CIE Lab (k-me
 reduced copy). A new point's novelty is the colour difference (ΔE, CIE76) from its patch's
 colour to the nearest colour any earlier station showed: small, the same stuff seen from
 further away; large, something the walk has revealed.
+
+The coarse station also steers the close one (:func:`station_prior`, the seed's proposal):
+its interest map, carried into the new mosaic's frame by the same prediction registration
+uses, and a neighbourhood around the chosen target weigh the new station's interest, so
+what was judged common from afar is de-emphasised and the target's surroundings favoured.
 """
 
 from __future__ import annotations
@@ -15,7 +20,10 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-__all__ = ["NEW_DE", "SessionMemory", "phrase"]
+from .ptu.geometry import MosaicGeometry
+from .register import carry
+
+__all__ = ["NEW_DE", "SessionMemory", "phrase", "station_prior"]
 
 NEW_DE = 20.0
 """ΔE above which a colour counts as not seen before (about twice the difference most
@@ -76,3 +84,43 @@ def phrase(novelty: tuple[float, str] | None, first: str) -> str:
         return ""
     delta, station = novelty
     return f"new since {first}" if delta > NEW_DE else f"seen at {station}"
+
+
+_PRIOR = 96
+"""Longest side of the grid the prior is carried on (it is smooth: a coarse look's map)."""
+
+
+def station_prior(
+    interest: np.ndarray,
+    old_geo: MosaicGeometry,
+    new_geo: MosaicGeometry,
+    *,
+    target: tuple[float, float],
+    radius_deg: float,
+    walk: float,
+    weight: float,
+) -> np.ndarray:
+    """Weights for the new station's interest, (h, w) float32 on a grid of the new mosaic:
+    ``1 - weight + weight x max(near, judged)``.
+
+    ``judged`` is the earlier interest (``interest``, over the earlier mosaic) carried into
+    the new frame and scaled to its maximum, 1 where the earlier station saw nothing (new
+    ground is not common ground); ``near`` a Gaussian around the chosen ``target`` of
+    sigma twice its radius as seen now (``radius_deg`` from the earlier station, times
+    ``walk``).
+    """
+    width, height = new_geo.size
+    scale = min(1.0, _PRIOR / max(width, height))
+    size = (max(2, round(width * scale)), max(2, round(height * scale)))
+    judged = carry(interest, old_geo, new_geo, target=target, walk=walk, size=size)
+    top = float(np.nanmax(judged)) if np.isfinite(judged).any() else 0.0
+    judged = np.where(np.isfinite(judged), judged / top if top > 0 else 0.0, 1.0)
+    near = np.zeros_like(judged)
+    centre = new_geo.to_mosaic(*target)
+    if centre is not None:
+        deg_per_px = new_geo.camera.hfov / new_geo.tile_size[0] / scale
+        sigma = max(2.0 * radius_deg * walk / deg_per_px, 1.0)
+        ys, xs = np.mgrid[0 : size[1], 0 : size[0]]
+        dist2 = (xs + 0.5 - centre[0] * scale) ** 2 + (ys + 0.5 - centre[1] * scale) ** 2
+        near = np.exp(-dist2 / (2.0 * sigma * sigma))
+    return ((1.0 - weight) + weight * np.maximum(near, judged)).astype(np.float32)

@@ -23,13 +23,13 @@ import numpy as np
 
 from .ptu.geometry import MosaicGeometry
 
-__all__ = ["register"]
+__all__ = ["carry", "register"]
 
 _WORK = 256
 """Longest side of the copies registered (coarse structure is what carries across)."""
 
 
-def _predicted(
+def carry(
     old: np.ndarray,
     old_geo: MosaicGeometry,
     new_geo: MosaicGeometry,
@@ -38,12 +38,14 @@ def _predicted(
     walk: float,
     size: tuple[int, int],
 ) -> np.ndarray:
-    """The earlier mosaic as the new station should see it, (h, w) grey float32; NaN
-    where the earlier one saw nothing."""
+    """A map of the earlier mosaic (one plane, any values, shaped as the earlier mosaic or
+    reduced from it) as the new station sees it, (h, w) float32 for ``size`` = (w, h);
+    NaN where the earlier one saw nothing."""
     w, h = size
     sx, sy = new_geo.size[0] / w, new_geo.size[1] / h
+    ox, oy = old.shape[1] / old_geo.size[0], old.shape[0] / old_geo.size[1]
     out = np.full((h, w), np.nan, np.float32)
-    grey = cv2.cvtColor(old, cv2.COLOR_BGR2GRAY).astype(np.float32)
+    plane = old.astype(np.float32, copy=False)
     for y in range(h):
         for x in range(w):
             pan, tilt = new_geo.to_angles((x + 0.5) * sx, (y + 0.5) * sy)
@@ -51,9 +53,9 @@ def _predicted(
             tilt = target[1] + (tilt - target[1]) / walk
             seen = old_geo.to_mosaic(pan, tilt)
             if seen is not None:
-                u, v = seen
-                if 0 <= u < grey.shape[1] - 1 and 0 <= v < grey.shape[0] - 1:
-                    out[y, x] = grey[int(v), int(u)]
+                u, v = seen[0] * ox, seen[1] * oy
+                if 0 <= u < plane.shape[1] - 1 and 0 <= v < plane.shape[0] - 1:
+                    out[y, x] = plane[int(v), int(u)]
     return out
 
 
@@ -72,7 +74,8 @@ def register(
     scale = _WORK / max(rows, cols)
     size = (max(8, round(cols * scale)), max(8, round(rows * scale)))
     coarse = (size[0] // 4, size[1] // 4)
-    predicted = _predicted(old, old_geo, new_geo, target=target, walk=walk, size=coarse)
+    grey = cv2.cvtColor(old, cv2.COLOR_BGR2GRAY)
+    predicted = carry(grey, old_geo, new_geo, target=target, walk=walk, size=coarse)
     predicted = cv2.resize(predicted, size, interpolation=cv2.INTER_LINEAR)
     seen = np.isfinite(predicted)
     record: dict[str, Any] = {"prediction": "walk" if walk > 1.0 else "zoom", "overlap": 0.0}

@@ -36,7 +36,7 @@ from .analyze import analyse_into
 from .archive import MANIFEST, Archive, ArchiveError, Station
 from .camera import CameraError, Frame
 from .config import SurveyConfig
-from .memory import SessionMemory, phrase
+from .memory import SessionMemory, phrase, station_prior
 from .ptu import PtuError, PtuLimitError, PtuPosition
 from .ptu.geometry import CameraModel, MosaicGeometry
 from .register import register
@@ -75,6 +75,8 @@ class _Approach:
     leg: int = 0
     aim: tuple[float, float] | None = None
     aimed_from: str = ""
+    radius_deg: float = 0.0
+    """The aimed target's angular radius, as the station it was chosen at saw it."""
     mosaic: tuple[int, int] | None = None
     """(rows, cols) fitted to the aimed target's size."""
 
@@ -284,6 +286,7 @@ class Survey:
         ratio = self.distance / self.cfg.approach[ap.leg + 1]
         ap.leg += 1
         ap.aim, ap.aimed_from = (point.pan, point.tilt), f"{result.station}#{point.rank}"
+        ap.radius_deg = point.radius_deg or 0.0
         ap.mosaic, fit = self._fit(point, ratio)
         self.station.update(choice=self.station.manifest["choice"] | {"next": fit})
         if self.cfg.simulate_approach or self.cfg.zoom_on_target:
@@ -354,8 +357,9 @@ class Survey:
             await self._register(station, geometry, mosaic)
             self._progress("analysis", 0, 1)
             ta = time.perf_counter()
+            prior = await asyncio.to_thread(self._prior, station, geometry)
             doc = await self.worker.call(
-                analyse_into, str(station.partial_dir), mosaic, profile, "mosaic.png"
+                analyse_into, str(station.partial_dir), mosaic, profile, "mosaic.png", prior
             )
             timing["analysis_s"] = self._analysis_estimate = time.perf_counter() - ta
             station.publish_analysis()
@@ -514,6 +518,37 @@ class Survey:
         except (ArchiveError, cv2.error, ValueError) as exc:
             record = {"note": f"not registered: {exc}"}
         station.update(registration={"from": previous, **record})
+
+    def _prior(self, station: Station, geometry: MosaicGeometry) -> np.ndarray | None:
+        """Memory across stations (``survey.memory``): the weights the station it was aimed
+        from puts on this one's interest (daemon.memory.station_prior), noted in the
+        manifest; None for a first station, with the option off, or when the earlier
+        interest cannot be read (noted too)."""
+        ap, weight = self._approach, self.cfg.memory
+        if weight <= 0 or ap.aim is None or not ap.aimed_from:
+            return None
+        previous = ap.aimed_from.split("#")[0]
+        session, _, name = previous.partition("/")
+        walk = 1.0 if self._magnification() > 1.0 else self.cfg.approach[ap.leg - 1] / self.distance
+        try:
+            png = self.archive.read(session, f"{name}/analysis/interest.png", 1 << 26)
+            interest = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_GRAYSCALE)
+            if interest is None:
+                raise ArchiveError(f"{previous}: unreadable interest map")
+            prior = station_prior(
+                interest,
+                self.geometry_of(previous),
+                geometry,
+                target=ap.aim,
+                radius_deg=ap.radius_deg,
+                walk=walk,
+                weight=weight,
+            )
+        except (ArchiveError, cv2.error, ValueError) as exc:
+            station.update(memory={"from": previous, "note": f"no prior: {exc}"})
+            return None
+        station.update(memory={"from": previous, "weight": weight})
+        return prior
 
     def _recall(
         self, points: list[InterestPoint], doc: dict[str, Any], mosaic: np.ndarray

@@ -7,6 +7,8 @@ pointing errors show up in the frames, then gets sensor noise. The built-in scen
 :func:`daemon.scene.outcrop_scene` at panorama size: a layered cliff with ledge
 shadows and planted targets (wet stain, plant, white vein knot, red spot) whose world
 angles are known, which is what tests, the demo and the survey benchmark score against.
+``sim://world`` instead draws each frame from :class:`daemon.world.World`, a procedural
+outcrop with detail at every range, at the ground resolution of the view.
 """
 
 from __future__ import annotations
@@ -22,10 +24,10 @@ from urllib.parse import parse_qs, urlsplit
 import cv2
 import numpy as np
 
-from ..imageio import ImageError, read_image
+from ..imageio import ImageError, as_bgr8, read_image
 from ..ptu.geometry import CameraModel, pixel_to_angles
 from ..scene import outcrop_scene
-from ..vision.pipeline import as_bgr8
+from ..world import World
 from .base import Camera, CameraError, Exposure, Frame
 
 __all__ = ["Panorama", "PoseSource", "SimulatedCamera", "WorldTarget", "outcrop_panorama"]
@@ -98,7 +100,7 @@ class SimulatedCamera(Camera):
 
     def __init__(
         self,
-        panorama: Panorama,
+        panorama: Panorama | World,
         camera: CameraModel | None = None,
         *,
         pose: PoseSource | None = None,
@@ -143,24 +145,29 @@ class SimulatedCamera(Camera):
         self._maps = None
         return 0.0
 
-    def _remap_tables(self, pan: float, tilt: float) -> tuple[np.ndarray, np.ndarray]:
+    def _directions(self, pan: float, tilt: float) -> tuple[np.ndarray, np.ndarray]:
+        """World (pan, tilt) of every pixel centre at this pose, or where in the panorama
+        they fall (remap samples pixel centres at integer coordinates); cached per pose."""
         key = (pan, tilt, self.model.hfov)
         if self._maps is None or self._maps[0] != key:
             w, h = self.resolution
             xs = np.arange(w, dtype=np.float64) + 0.5
             ys = np.arange(h, dtype=np.float64) + 0.5
             a, b = pixel_to_angles(xs[None, :], ys[:, None], pan, tilt, self.model)
-            px, py = self.panorama.to_pixel(a, b)
-            # remap samples pixel centres at integer coordinates.
-            self._maps = (key, (px - 0.5).astype(np.float32), (py - 0.5).astype(np.float32))
+            if isinstance(self.panorama, Panorama):
+                px, py = self.panorama.to_pixel(a, b)
+                a, b = (px - 0.5).astype(np.float32), (py - 0.5).astype(np.float32)
+            self._maps = (key, a, b)
         return self._maps[1], self._maps[2]
 
     def render(self, pan: float, tilt: float) -> np.ndarray:
         """The noiseless view at (pan, tilt) degrees."""
-        mx, my = self._remap_tables(pan, tilt)
+        a, b = self._directions(pan, tilt)
+        if isinstance(self.panorama, World):  # drawn at the detail this view resolves
+            return self.panorama.render(a, b, self.model.hfov / self.model.width)
         # Beyond the panorama the edge is smeared outwards: a mirror would duplicate targets.
         return cv2.remap(
-            self.panorama.image, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+            self.panorama.image, a, b, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
         )
 
     async def grab(self) -> Frame:
@@ -178,9 +185,10 @@ class SimulatedCamera(Camera):
 
     @classmethod
     def from_url(cls, url: str, pose: PoseSource | None = None) -> SimulatedCamera:
-        """``sim://outcrop?seed=N`` or ``sim:///path/pano.png?pan=-45,45&tilt=-15,20``.
+        """``sim://outcrop?seed=N``, ``sim://world?seed=N`` (:class:`daemon.world.World`,
+        detail at every range) or ``sim:///path/pano.png?pan=-45,45&tilt=-15,20``.
 
-        Both take ``hfov`` (degrees), ``width``, ``height`` and ``noise`` (grey levels).
+        All take ``hfov`` (degrees), ``width``, ``height`` and ``noise`` (grey levels).
         """
         parts = urlsplit(url)
         q = {k: v[-1] for k, v in parse_qs(parts.query).items()}
@@ -194,8 +202,11 @@ class SimulatedCamera(Camera):
             return lo, hi
 
         pan, tilt = span("pan", (-45.0, 45.0)), span("tilt", (-15.0, 20.0))
+        panorama: Panorama | World
         if parts.netloc == "outcrop":
             panorama = outcrop_panorama(int(q.get("seed", 0)), pan, tilt)
+        elif parts.netloc == "world":
+            panorama = World(int(q.get("seed", 0)))
         elif parts.path:
             try:
                 image = as_bgr8(read_image(Path(parts.path)))

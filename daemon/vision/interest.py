@@ -104,6 +104,7 @@ def interest_map(
     params: VisionParams,
     total: np.ndarray | None = None,
     texture: np.ndarray | None = None,
+    prior: np.ndarray | None = None,
 ) -> InterestMap:
     """Sum the H, S, I uncommon maps with their weights and blur with sigma B.
 
@@ -119,6 +120,10 @@ def interest_map(
         :func:`summed_uncommon` of ``segs``, when the caller already has it.
     texture : (M, N) float32 ndarray, optional
         ``texture.texture_rarity`` of the image, fused in with ``texture_weight`` (:func:`fuse`).
+    prior : (M, N) float32 ndarray, optional
+        Weights (typically 0..1) the interest is multiplied by where peaks are picked: what
+        an earlier look at the same ground already judged (memory across stations). Patches
+        keep their extent from the unweighted map.
 
     Returns
     -------
@@ -158,6 +163,8 @@ def interest_map(
         grid = blurred
         if params.fused_isotropy > 0:
             grid = blurred * _roundness(blurred, sigma / f, params.fused_isotropy)
+    if prior is not None:
+        grid = grid * _reduce(prior.astype(np.float32, copy=False), f)
     return InterestMap(grid, f, (rows, cols), None if grid is blurred else blurred)
 
 

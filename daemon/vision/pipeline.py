@@ -16,7 +16,7 @@ from .params import VisionParams
 from .texture import texture_rarity
 from .uncommon import uncommon_map
 
-__all__ = ["Analysis", "analyze", "as_bgr8"]
+__all__ = ["Analysis", "analyze"]
 
 
 @dataclass(frozen=True)
@@ -34,44 +34,18 @@ class Analysis:
     timings_ms: dict[str, float] = field(default_factory=dict)
 
 
-def as_bgr8(image: np.ndarray) -> np.ndarray:
-    """Bring any decoded image to (M, N, 3) uint8 BGR: grey, alpha and 16-bit welcome.
-
-    Examples
-    --------
-    >>> as_bgr8(np.full((2, 2), 65535, np.uint16))[0, 0].tolist()
-    [255, 255, 255]
-    >>> as_bgr8(np.zeros((1, 1, 4), np.uint8)).shape
-    (1, 1, 3)
-    """
-    if image.ndim not in (2, 3) or image.size == 0:
-        raise ValueError(f"not an image: shape {image.shape}")
-    if image.dtype == np.uint16:
-        image = (image >> 8).astype(np.uint8)
-    elif image.dtype in (np.float32, np.float64):
-        image = np.clip(np.nan_to_num(image) * 255.0, 0, 255).astype(np.uint8)
-    elif image.dtype != np.uint8:
-        raise ValueError(f"unsupported pixel type {image.dtype}")
-    if image.ndim == 2:
-        return cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
-    channels = image.shape[2]
-    if channels == 1:
-        return cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
-    if channels == 3:
-        return np.ascontiguousarray(image)
-    if channels == 4:
-        return cv2.cvtColor(image, cv2.COLOR_BGRA2BGR)
-    raise ValueError(f"unsupported channel count {channels}")
-
-
-def analyze(bgr: np.ndarray, params: VisionParams) -> Analysis:
+def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = None) -> Analysis:
     """Find the most uncommon regions of a colour image.
 
     Parameters
     ----------
     bgr : (M, N, 3) uint8 ndarray
-        A frame or a quasi-mosaic, B, G, R order (use :func:`as_bgr8` first). Not modified.
+        A frame or a quasi-mosaic, B, G, R order (``daemon.imageio.as_bgr8`` brings any
+        decoded image to it). Not modified.
     params : VisionParams
+    prior : 2-D ndarray, optional
+        Weights on the interest where points are picked (``interest.interest_map``), of any
+        size covering the same ground as ``bgr`` (resized to it).
 
     Returns
     -------
@@ -117,7 +91,9 @@ def analyze(bgr: np.ndarray, params: VisionParams) -> Analysis:
     timings["segment"] = (t2 - t1) * 1e3
     maps = [uncommon_map(seg, params) for seg in segs]
     texture = texture_rarity(bgr, params) if params.texture_weight > 0 else None
-    imap = interest_map(segs, params, summed_uncommon(segs, params, maps), texture)
+    if prior is not None:
+        prior = _fit_prior(prior, bgr.shape[:2])
+    imap = interest_map(segs, params, summed_uncommon(segs, params, maps), texture, prior)
     points = find_points(imap, params)
     t3 = time.perf_counter()
     timings["interest"] = (t3 - t2) * 1e3
@@ -129,3 +105,13 @@ def analyze(bgr: np.ndarray, params: VisionParams) -> Analysis:
     timings["explain"] = (time.perf_counter() - t3) * 1e3
     timings["total"] = (time.perf_counter() - t0) * 1e3
     return Analysis(hsi, segs, imap, points, explanations, descriptions, params, timings)
+
+
+def _fit_prior(prior: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """The prior at the analysed image's size; refused unless a finite 2-D map."""
+    prior = np.asarray(prior, np.float32)
+    if prior.ndim != 2 or prior.size == 0 or not np.isfinite(prior).all():
+        raise ValueError(f"a prior must be a finite 2-D map, got shape {prior.shape}")
+    if prior.shape != shape:
+        prior = cv2.resize(prior, (shape[1], shape[0]), interpolation=cv2.INTER_LINEAR)
+    return prior

@@ -6,13 +6,16 @@ from their surroundings in local contrast more than in any one value, hardly reg
 
 Each pixel gets a descriptor: the local standard deviation of intensity at each of
 ``texture_scales`` (Gaussian sigmas, analysed-image pixels), its brightness against its
-surroundings (the intensity at the finest scale minus that at ``texture_surround``), and, for
+surroundings (the log ratio of the intensity at the finest scale to that at
+``texture_surround``), and, for
 colour images, two opponent chroma values (red - green, yellow - blue). Its rarity is the
 squared Mahalanobis distance from the image's typical descriptor, the negative
 log-likelihood under one Gaussian model of the image's textures (Reed & Yu's RX detector on
 local features). Brightness enters only against the surroundings: how dark a pixel is
 overall is the I plane's business, and an absolute level made whole shadowed ledges rare
-(pooled top-1 on the real sets 48 -> 50 %, dark-ledge scenes unchanged or better).
+(pooled top-1 on the real sets 48 -> 50 %); as a ratio rather than a difference it took
+pooled top-1 from 50 to 55 % (AI4Mars rocks, whose shadows are their most visible part, 35 ->
+44 %), where log intensity for the contrast too (58 %) lost most thin veins on dark rock.
 
 Mean and covariance are estimated robustly, by concentration steps (the C-step of
 Rousseeuw & Van Driessen's FAST-MCD): each step refits on the ``1 - texture_trim`` share of
@@ -38,6 +41,9 @@ _MIN_FIT = 8
 """Pixels per descriptor dimension below which no texture model is fitted."""
 _OPPONENT = np.array([[1.0, 1.0, 1.0], [0.0, -3.0, 3.0], [-3.0, 1.5, 1.5]], np.float32) / 765.0
 """8-bit B, G, R to intensity (the I of HSI), red - green and yellow - blue, on 0..1."""
+_FLOOR = 0.1
+"""Brightness ratios are taken on I + 0.1 (I on 0..1): a shadow or a dark crack counts by how
+many times darker it is, but sensor noise in near-black pixels is not blown up into ratios."""
 
 
 def descriptors(bgr: np.ndarray, scales: tuple[float, ...], surround: float) -> np.ndarray:
@@ -52,20 +58,20 @@ def descriptors(bgr: np.ndarray, scales: tuple[float, ...], surround: float) -> 
     >>> round(float(descriptors(img, (1.5,), 16.0)[10, 10, 0]), 2)  # flat: no local contrast
     0.0
     """
-    opponent = cv2.transform(bgr.astype(np.float32), _OPPONENT)
+    grey, red_green, yellow_blue = cv2.split(cv2.transform(bgr.astype(np.float32), _OPPONENT))
     # Centred on the image's mean: E[I^2] - E[I]^2 in float32 cancels badly on bright rock.
-    intensity = cv2.subtract(cv2.extractChannel(opponent, 0), float(cv2.mean(opponent)[0]))
+    intensity = cv2.subtract(grey, float(cv2.mean(grey)[0]))
     moments = cv2.merge([intensity, cv2.multiply(intensity, intensity)])
-    # Mean and mean square of the intensity, per scale; the finest blur carries chroma along.
-    fine = cv2.GaussianBlur(cv2.merge([moments, opponent]), (0, 0), scales[0])
-    planes, chroma = [], list(cv2.split(fine)[3:])
+    ratio = cv2.log(grey + _FLOOR)  # brightness against the surroundings is a ratio
+    # Mean and mean square of the intensity at the finest scale, chroma and log brightness.
+    fine = cv2.GaussianBlur(cv2.merge([moments, red_green, yellow_blue, ratio]), (0, 0), scales[0])
+    planes = []
     for sigma in scales:
         blurred = fine if sigma == scales[0] else cv2.GaussianBlur(moments, (0, 0), sigma)
         mean, square = cv2.extractChannel(blurred, 0), cv2.extractChannel(blurred, 1)
         planes.append(cv2.sqrt(np.maximum(square - cv2.multiply(mean, mean), 0.0)))
-    mean = cv2.extractChannel(fine, 0)
-    planes.append(mean - cv2.GaussianBlur(intensity, (0, 0), surround))
-    return cv2.merge(planes + chroma)
+    planes.append(cv2.extractChannel(fine, 4) - cv2.GaussianBlur(ratio, (0, 0), surround))
+    return cv2.merge([*planes, cv2.extractChannel(fine, 2), cv2.extractChannel(fine, 3)])
 
 
 def texture_rarity(bgr: np.ndarray, params: VisionParams) -> np.ndarray:

@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from bench import browser, bus, operator, ptu, quality, real, security, speed, survey
+from bench import approach, browser, bus, operator, ptu, quality, real, security, speed, survey
 from daemon.demo import run_demo
 from daemon.scene import Scene, Target, outcrop_scene
 from daemon.vision.interest import InterestPoint
@@ -240,3 +240,14 @@ def test_security_benchmark_smoke(capsys):
         assert c["tried"] > 0 and c["executed"] == 0 and c["refused"] == c["tried"], section
     assert out["crashed"] == 0 and not out["head moved"]
     assert set(out["frames"]) == {"plain tcp", "tls + acl"}
+
+
+async def test_approach_benchmark_smoke(tmp_path):
+    """One approach through the real survey engine on a procedural world: three stations,
+    each registered to the one before, and the 10 m chips judged against the stain's core."""
+    scores = await approach.approach(1000, "default", 0.5, tmp_path)
+    assert scores["stations"] == 3
+    assert isinstance(scores["core_in_chip"], bool) and scores["core_offset_frames"] >= 0
+    assert len(scores["residual_deg"]) == 2 and all(r < 1.0 for r in scores["residual_deg"])
+    summary = approach._summary([scores])
+    assert summary["completed"] == 1 and 0.0 <= summary["core_in_chip"] <= 1.0

@@ -59,6 +59,7 @@ approach = [300, 60, 10]
         ("[survey]\nrows = 40", "survey.rows 1..16"),
         ("[survey]\nprofile = 'fancy'", "survey.profile must be one of"),
         ("[survey]\napproach = []", "positive distances"),
+        ("[survey]\nmemory = 2", "survey.memory must be in [0, 1]"),
         ("[camera]\nhfov = 0", "camera.hfov"),
         ("[zenoh]\nmode = 'client'", "client mode needs"),
         ("[zenoh]\nlisten = 'tcp/x'", "zenoh.listen: expected a list"),

@@ -2,11 +2,12 @@ import cv2
 import numpy as np
 import pytest
 
+from daemon.imageio import as_bgr8
 from daemon.vision.cooccurrence import PlaneClass, Segmentation
 from daemon.vision.explain import describe
 from daemon.vision.interest import InterestMap, find_points, interest_map, summed_uncommon
 from daemon.vision.params import DEFAULT, PAPER
-from daemon.vision.pipeline import analyze, as_bgr8
+from daemon.vision.pipeline import analyze
 from daemon.vision.uncommon import uncommon_map
 
 

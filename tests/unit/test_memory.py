@@ -1,10 +1,15 @@
-"""Novelty against history: a colour no earlier station showed is new, one it showed is not."""
+"""Memory across stations: a colour no earlier station showed is new, one it showed is not;
+the coarse station's interest and the chosen target weigh the close station's points."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
-from daemon.memory import NEW_DE, SessionMemory, phrase
+from daemon.memory import NEW_DE, SessionMemory, phrase, station_prior
+from daemon.ptu.geometry import CameraModel, MosaicGeometry
+from daemon.vision.params import DEFAULT
+from daemon.vision.pipeline import analyze
 
 
 def test_new_is_what_no_earlier_station_showed() -> None:
@@ -20,3 +25,44 @@ def test_new_is_what_no_earlier_station_showed() -> None:
     assert seen is not None and seen[0] < 1.0 and phrase(seen, "st01-300m") == "seen at st01-300m"
     memory.clear()
     assert memory.novelty(closer, 36, 26, 6) is None
+
+
+def _two_spots(left: int, right: int) -> np.ndarray:
+    """A 2-tile mosaic of buff rock (360 x 144) with a dark spot in each tile."""
+    rng = np.random.default_rng(5)
+    img = np.clip(rng.normal((110, 140, 170), 3, (144, 360, 3)), 0, 255).astype(np.uint8)
+    img[72 - left : 72 + left, 90 - left : 90 + left] = (30, 40, 50)
+    img[72 - right : 72 + right, 270 - right : 270 + right] = (30, 40, 50)
+    return img
+
+
+def test_memory_de_emphasises_what_was_common_from_afar() -> None:
+    """Known answer: the right spot is the bigger one, so alone it comes first; but the
+    station this one was aimed from judged the left half interesting and the right common,
+    so with memory the left spot comes first."""
+    geo = MosaicGeometry(CameraModel(720, 576, 30.0), 1, 2, downsample=4)
+    earlier = np.zeros((144, 360), np.uint8)
+    earlier[:, :180] = 200  # the coarse look's interest: high on the left, nil on the right
+    plain = analyze(_two_spots(6, 8), DEFAULT)
+    assert plain.points[0].x > 180
+    prior = station_prior(
+        earlier, geo, geo, target=(0.0, 0.0), radius_deg=0.0, walk=1.0, weight=0.8
+    )
+    assert prior.min() == pytest.approx(0.2, abs=0.01) and prior.max() == pytest.approx(1.0)
+    remembered = analyze(_two_spots(6, 8), DEFAULT, prior)
+    assert remembered.points[0].x < 180
+    # Patches keep their extent from the unweighted map: the spots are the same size.
+    assert remembered.points[0].radius == pytest.approx(plain.points[1].radius, rel=0.2)
+
+
+def test_memory_favours_the_chosen_targets_surroundings() -> None:
+    geo = MosaicGeometry(CameraModel(720, 576, 30.0), 1, 2, downsample=4)
+    nothing = np.zeros((144, 360), np.uint8)  # the earlier look saw all of it as common
+    left = geo.to_angles(90, 72)
+    prior = station_prior(nothing, geo, geo, target=left, radius_deg=1.0, walk=1.0, weight=0.8)
+    assert analyze(_two_spots(6, 8), DEFAULT, prior).points[0].x < 180
+
+
+def test_a_prior_must_be_a_finite_map() -> None:
+    with pytest.raises(ValueError, match="finite 2-D map"):
+        analyze(_two_spots(6, 8), DEFAULT, np.full((4, 4), np.nan, np.float32))
