@@ -8,7 +8,7 @@ evaluated at each pixel with the pixel's footprint, so every view gets the detai
 resolution can show and no more:
 
 * beds with undulating contacts, lamination and grain: fractal noise in octaves from 2 deg
-  down to 0.0003 deg (at 300 m, 10 m to 1.5 mm), each octave attenuated as a pixel of that
+  down to 0.0005 deg (at 300 m, 10 m to 2.6 mm), each octave attenuated as a pixel of that
   footprint would average it (a Gaussian pixel of sigma = footprint / 2), so a coarse view is
   smooth rock, not aliased speckle;
 * a planted wet stain whose structure resolves only close up: a darker, shadowed, bluish core
