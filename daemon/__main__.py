@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import importlib
 import logging
 import sys
 from dataclasses import replace
@@ -19,7 +20,6 @@ from .analyze import AnalyzeOptions, analyze_files
 from .app import run
 from .camera import CameraError
 from .config import load, validate
-from .demo import run_demo
 from .ptu import PtuError
 from .ptu.emulator import Ptu46Emulator
 from .ptu.models import MODELS
@@ -228,7 +228,8 @@ def main(argv: list[str] | None = None) -> int:
         return _run_daemon(args)
     if args.command == "ptu-emulator":
         return _run_emulator(args, parser)
-    return run_demo(args.out, args.seed)
+    # The demo's scene generator is loaded only for the demo, never by the service.
+    return importlib.import_module(".demo", __package__).run_demo(args.out, args.seed)
 
 
 if __name__ == "__main__":

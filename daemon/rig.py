@@ -13,7 +13,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from .camera import Camera, Frame
-from .camera.simulated import PoseSource
+from .camera.base import PoseSource
 from .ptu import PanTiltUnit, PtuPosition
 
 __all__ = ["Control", "Rig"]

@@ -6,6 +6,7 @@
 ``gst://dv1394src ! ... ! appsink``    a GStreamer pipeline (OpenCV built with GStreamer)
 ``/dev/video2``, ``clip.mp4``          a bare path
 ``sim://outcrop?seed=7&hfov=30``       the simulated camera on the PTU, built-in cliff
+``sim://world?seed=7&hfov=30``         the same on a procedural world (detail at every range)
 ``sim:///data/pano.png?pan=-40,40``    the simulated camera on your own panorama
 =====================================  ====================================================
 
@@ -15,12 +16,16 @@ A zoom lens on its own line is named apart (``[camera] zoom``), e.g.
 
 from __future__ import annotations
 
+import importlib
+from typing import TYPE_CHECKING, Any
 from urllib.parse import parse_qs, urlsplit
 
-from .base import Camera, CameraError, CameraUnavailableError, Exposure, Frame
-from .opencv import OpenCvCamera, parse_source
-from .simulated import Panorama, PoseSource, SimulatedCamera, WorldTarget, outcrop_panorama
-from .visca import ViscaZoom
+from .base import Camera, CameraError, CameraUnavailableError, Exposure, Frame, PoseSource
+
+if TYPE_CHECKING:
+    from .opencv import OpenCvCamera
+    from .simulated import Panorama, SimulatedCamera, WorldTarget, outcrop_panorama
+    from .visca import ViscaZoom
 
 __all__ = [
     "Camera",
@@ -36,6 +41,26 @@ __all__ = [
     "outcrop_panorama",
 ]
 
+_LAZY = {
+    "OpenCvCamera": ".opencv",
+    "Panorama": ".simulated",
+    "SimulatedCamera": ".simulated",
+    "WorldTarget": ".simulated",
+    "outcrop_panorama": ".simulated",
+}
+"""Back ends are imported when first used: a rig on a real camera never loads the simulator
+(its scenes and world), nor a simulated one the VISCA driver."""
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name], __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _backend(module: str) -> Any:
+    return importlib.import_module(module, __name__)
+
 
 def open_camera(url: str, pose: PoseSource | None = None, zoom: str = "") -> Camera:
     """Build (not open) the camera a URL names; ``pose`` feeds simulated cameras; ``zoom``
@@ -48,9 +73,10 @@ def open_camera(url: str, pose: PoseSource | None = None, zoom: str = "") -> Cam
     20.0
     """
     if url.startswith("sim://"):
-        return SimulatedCamera.from_url(url, pose)
-    source, api, loop = parse_source(url)
-    return OpenCvCamera(source, api, loop=loop, zoom=_zoom(zoom) if zoom else None)
+        return _backend(".simulated").SimulatedCamera.from_url(url, pose)
+    opencv = _backend(".opencv")
+    source, api, loop = opencv.parse_source(url)
+    return opencv.OpenCvCamera(source, api, loop=loop, zoom=_zoom(zoom) if zoom else None)
 
 
 def _zoom(url: str) -> ViscaZoom:
@@ -58,7 +84,7 @@ def _zoom(url: str) -> ViscaZoom:
     if parts.scheme != "visca" or not parts.path:
         raise ValueError(f"zoom {url!r}: want visca:///dev/ttyUSB1?max=30")
     query = parse_qs(parts.query)
-    return ViscaZoom(
+    return _backend(".visca").ViscaZoom(
         parts.path,
         max_level=float(query.get("max", ["30"])[-1]),
         baudrate=int(query.get("baud", ["9600"])[-1]),

@@ -9,11 +9,15 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Camera", "CameraError", "CameraUnavailableError", "Exposure", "Frame"]
+__all__ = ["Camera", "CameraError", "CameraUnavailableError", "Exposure", "Frame", "PoseSource"]
+
+PoseSource = Callable[[], Awaitable[tuple[float, float]]]
+"""Where the head points now, (pan, tilt) degrees: what a simulated camera renders from."""
 
 
 class CameraError(Exception):

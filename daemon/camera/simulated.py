@@ -16,7 +16,6 @@ from __future__ import annotations
 import asyncio
 import functools
 import time
-from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import parse_qs, urlsplit
@@ -28,11 +27,9 @@ from ..imageio import ImageError, as_bgr8, read_image
 from ..ptu.geometry import CameraModel, pixel_to_angles
 from ..scene import outcrop_scene
 from ..world import World
-from .base import Camera, CameraError, Exposure, Frame
+from .base import Camera, CameraError, Exposure, Frame, PoseSource
 
 __all__ = ["Panorama", "PoseSource", "SimulatedCamera", "WorldTarget", "outcrop_panorama"]
-
-PoseSource = Callable[[], Awaitable[tuple[float, float]]]
 
 
 @dataclass(frozen=True)
