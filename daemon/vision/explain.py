@@ -150,25 +150,19 @@ def explain_points(
         return []
     rows, cols = segs[0].labels.shape
     sigma = params.sigma((rows, cols))
-    rad = max(1, math.ceil(2.5 * sigma))
     if maps is None:
         maps = [uncommon_map(seg, params) for seg in segs]
     step = max(1, math.isqrt(rows * cols // _SAMPLE))
     ranked = np.sort(texture[::step, ::step], axis=None) if texture is not None else None
     out = []
     for point in points:
-        x, y = round(point.x), round(point.y)
-        r0, r1 = max(0, y - rad), min(rows, y + rad + 1)
-        c0, c1 = max(0, x - rad), min(cols, x + rad + 1)
-        yy, xx = np.mgrid[r0:r1, c0:c1]
-        kernel = np.exp(-((yy - point.y) ** 2 + (xx - point.x) ** 2) / (2.0 * sigma**2))
-        kernel /= kernel.sum()
+        box, kernel = _gaussian_window(point, sigma, (rows, cols))
         planes = []
         for name, seg, umap, weight in zip(
             PLANE_NAMES, segs, maps, params.plane_weights, strict=True
         ):
-            window = seg.labels[r0:r1, c0:c1]
-            scored = umap[r0:r1, c0:c1] * kernel
+            window = seg.labels[box]
+            scored = umap[box] * kernel
             by_class = np.bincount(window.ravel(), weights=scored.ravel(), minlength=seg.k + 1)
             entry: dict = {"plane": name, "contribution": round(float(scored.sum()) * weight, 3)}
             entry["classes"] = seg.k
@@ -193,19 +187,27 @@ def explain_points(
     return out
 
 
+def _gaussian_window(
+    point: InterestPoint, sigma: float, shape: tuple[int, ...]
+) -> tuple[tuple[slice, slice], np.ndarray]:
+    """The pixels within 2.5 sigma of ``point`` and their Gaussian weights (summing to 1):
+    what the interest blur summed around it."""
+    rad = max(1, math.ceil(2.5 * sigma))
+    x, y = round(point.x), round(point.y)
+    r0, r1 = max(0, y - rad), min(shape[0], y + rad + 1)
+    c0, c1 = max(0, x - rad), min(shape[1], x + rad + 1)
+    yy, xx = np.mgrid[r0:r1, c0:c1]
+    kernel = np.exp(-((yy - point.y) ** 2 + (xx - point.x) ** 2) / (2.0 * sigma**2))
+    return (slice(r0, r1), slice(c0, c1)), kernel / kernel.sum()
+
+
 def _texture_entry(
     texture: np.ndarray, point: InterestPoint, sigma: float, ranked: np.ndarray
 ) -> dict:
     """The texture rarity around ``point`` (Gaussian-weighted, sigma) and its rank among
     the image's pixels (``ranked``: a sorted sample of the rarity)."""
-    rows, cols = texture.shape
-    rad = max(1, math.ceil(2.5 * sigma))
-    x, y = round(point.x), round(point.y)
-    r0, r1 = max(0, y - rad), min(rows, y + rad + 1)
-    c0, c1 = max(0, x - rad), min(cols, x + rad + 1)
-    yy, xx = np.mgrid[r0:r1, c0:c1]
-    kernel = np.exp(-((yy - point.y) ** 2 + (xx - point.x) ** 2) / (2.0 * sigma**2))
-    rarity = float((texture[r0:r1, c0:c1] * kernel).sum() / kernel.sum())
+    box, kernel = _gaussian_window(point, sigma, texture.shape)
+    rarity = float((texture[box] * kernel).sum())
     commoner = float(np.searchsorted(ranked, rarity)) / max(len(ranked), 1)
     return {"plane": "texture", "rarity": round(rarity, 3), "rarer_than": round(commoner, 4)}
 
