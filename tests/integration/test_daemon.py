@@ -297,8 +297,7 @@ async def test_sigterm_mid_survey_leaves_a_consistent_archive(daemon, client: Ri
 async def test_worker_killed_mid_survey_fails_that_survey_only(
     start_daemon, client: RigClient
 ) -> None:
-    # Full-resolution tiles make the analysis long enough to be caught in the act.
-    daemon = await start_daemon(downsample=1.0)
+    daemon = await start_daemon()
     await client.wait_alive()
     archive = Path(daemon.ready["archive"])
     progress = client.subscribe(client.keys.progress, SurveyProgress)
@@ -307,7 +306,11 @@ async def test_worker_killed_mid_survey_fails_that_survey_only(
     status = await client.call(SurveyStatus())
     old_pid = status.worker_pid
     assert old_pid == daemon.ready["worker_pid"] != 0
-    station = (await client.command(SurveyStart(rows=2, cols=3, downsample=1.0))).detail
+    station = (await client.command(SurveyStart(rows=2, cols=3))).detail
+    # Frozen while the tiles arrive, the worker cannot finish the analysis before it is killed,
+    # however fast the analysis is.
+    await _until(progress, station, {"tiles"})
+    os.kill(old_pid, signal.SIGSTOP)
     await _until(progress, station, {"analysis"})
     os.kill(old_pid, signal.SIGKILL)
     final = await _until(progress, station, {"failed", "done"})
