@@ -22,11 +22,11 @@ from .uncommon import uncommon_map
 
 __all__ = [
     "PLANE_NAMES",
+    "clauses",
     "colour_name",
     "describe",
     "explain_points",
     "plain_lines",
-    "texture_clause",
 ]
 
 PLANE_NAMES = ("H", "S", "I")
@@ -134,7 +134,9 @@ def explain_points(
     segs: tuple[Segmentation, ...],
     params: VisionParams,
     maps: list[np.ndarray] | None = None,
+    *,
     texture: np.ndarray | None = None,
+    shade: np.ndarray | None = None,
 ) -> list[list[dict]]:
     """Say, for each point, which planes and classes made it interesting.
 
@@ -145,6 +147,9 @@ def explain_points(
     With ``texture`` (``texture.texture_rarity``, fused in with ``texture_weight``) a last
     entry gives the texture rarity around the point (squared robust standard deviations,
     weighted as the fusion blurred it) and the share of the image whose texture is commoner.
+    With ``shade`` (``shadow.shadow_likelihood``) an entry gives the point's shadow
+    likelihood, weighted as the blur summed: a point the gate could not take off the top
+    says how likely it is shade.
     """
     if not points:
         return []
@@ -183,6 +188,9 @@ def explain_points(
             planes.append(entry)
         if texture is not None and params.texture_weight > 0:
             planes.append(_texture_entry(texture, point, sigma * params.texture_blur, ranked))
+        if shade is not None:
+            likelihood = float((shade[box] * kernel).sum())
+            planes.append({"plane": "shade", "likelihood": round(likelihood, 3)})
         out.append(planes)
     return out
 
@@ -212,25 +220,30 @@ def _texture_entry(
     return {"plane": "texture", "rarity": round(rarity, 3), "rarer_than": round(commoner, 4)}
 
 
-def texture_clause(explanation: list[dict]) -> str:
-    """The plain-language words on texture for a point's line, "" when it is not rare.
+def clauses(explanation: list[dict]) -> str:
+    """The plain-language words on texture and shade for a point's line ("" for neither).
 
     Examples
     --------
-    >>> texture_clause([{"plane": "texture", "rarity": 31.0, "rarer_than": 0.987}])
+    >>> clauses([{"plane": "texture", "rarity": 31.0, "rarer_than": 0.987}])
     '; texture rarer than 99 % of the image'
-    >>> texture_clause([{"plane": "I", "contribution": 3.0}])
-    ''
+    >>> clauses([{"plane": "I", "contribution": 3.0}, {"plane": "shade", "likelihood": 0.7}])
+    '; probably in shade'
     """
+    words = ""
     for e in explanation:
         if e["plane"] == "texture" and e["rarer_than"] >= _RARE_TEXTURE:
-            return f"; texture rarer than {100 * e['rarer_than']:.0f} % of the image"
-    return ""
+            words += f"; texture rarer than {100 * e['rarer_than']:.0f} % of the image"
+        elif e["plane"] == "shade" and e["likelihood"] >= _SHADE:
+            words += "; probably in shade"
+    return words
 
 
 _RARE_TEXTURE = 0.9
 """A point's surroundings count as of rare texture when 9 in 10 of the image's pixels have
 commoner texture."""
+_SHADE = 0.5
+"""A point whose surroundings are more likely shade than not is said to be in shade."""
 
 
 def _natural_value(plane: str, value: int) -> float:

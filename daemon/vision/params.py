@@ -103,6 +103,19 @@ class VisionParams:
     fused_isotropy: float = 0.0
     """``isotropy`` applied once more to the fused map (texture rarity has none of its own)."""
 
+    # Shadow gate (``shadow``): the seed's "structural shadow"
+    shadow_gate: float = 0.0
+    """Share of a pixel's uncommon and texture interest taken away by its shadow likelihood
+    (0: shadows count like anything else, as in the seed; 1: a certain shadow counts 0)."""
+    shadow_tint: tuple[float, float] = (0.32, 0.12)
+    """How going from sun to shade moves a surface's log(B / R) and log(G / R): the shade is
+    lit by the bluer sky alone. The direction matters, not the length; a pure darkening is
+    accepted too."""
+    shadow_surround: float = 6.0
+    """Gaussian sigma (analysed pixels) of the lit rock a pixel is compared with: wider than a
+    ledge shadow is thick, narrower than a bed, so a shadow on a bed contact is compared with
+    its own bed."""
+
     # Interest map and points
     blur: float = 10.0
     """B, in analysed-image pixels."""
@@ -162,6 +175,10 @@ class VisionParams:
             raise ValueError("texture_surround must exceed the largest texture scale")
         if not 0 <= self.texture_trim < 1:
             raise ValueError("texture_trim must be in [0, 1)")
+        if not 0 <= self.shadow_gate <= 1 or self.shadow_surround <= 0:
+            raise ValueError("shadow_gate must be in [0, 1]; shadow_surround > 0")
+        if len(self.shadow_tint) != 2 or not 0 < math.hypot(*self.shadow_tint) < math.inf:
+            raise ValueError("shadow_tint needs two finite log ratios, not both 0")
         if len(self.plane_weights) != 3 or min(self.plane_weights) < 0:
             raise ValueError("plane_weights needs three non-negative weights")
 
@@ -237,7 +254,9 @@ fastest profile, and the best on small colour targets on layered rock. Each depa
   diagonal nothing a point could find is lost.
 """
 
-DEFAULT = UNCOMMON.replace(texture_weight=3.5, fused_isotropy=0.6, blur_fraction=0.012)
+DEFAULT = UNCOMMON.replace(
+    texture_weight=3.5, fused_isotropy=0.6, blur_fraction=0.012, shadow_gate=1.0
+)
 """``uncommon`` plus texture rarity (``texture``): what the rig uses unless told otherwise.
 ``bench/real.py`` (347 real labelled images of five kinds), top-1 / any of 3 / repeat@1:
 55.3 / 77.5 / 95.4 %, against 37.2 / 62.2 / 71.5 for ``uncommon`` and 37.2 / 57.1 for the best

@@ -9,10 +9,11 @@ import cv2
 import numpy as np
 
 from .cooccurrence import Segmentation, segment_plane
-from .explain import explain_points, plain_lines, texture_clause
+from .explain import clauses, explain_points, plain_lines
 from .hsi import HSIPlanes, hue_histogram_rotation, rgb_to_hsi
 from .interest import InterestMap, InterestPoint, find_points, interest_map, summed_uncommon
 from .params import VisionParams
+from .shadow import shadow_likelihood
 from .texture import texture_rarity
 from .uncommon import uncommon_map
 
@@ -90,16 +91,24 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
     t2 = time.perf_counter()
     timings["segment"] = (t2 - t1) * 1e3
     maps = [uncommon_map(seg, params) for seg in segs]
-    texture = texture_rarity(bgr, params) if params.texture_weight > 0 else None
+    total = summed_uncommon(segs, params, maps)
+    rarity = texture = texture_rarity(bgr, params) if params.texture_weight > 0 else None
+    shade = shadow_likelihood(bgr, params) if params.shadow_gate > 0 else None
+    if shade is not None:
+        # Shade is judged on the image, before any blur: the gate keeps a shadow's rarity
+        # out of the interest while the maps and the explanations keep it.
+        lit = 1.0 - np.float32(params.shadow_gate) * shade
+        total = cv2.multiply(total, lit)
+        texture = None if texture is None else cv2.multiply(texture, lit)
     if prior is not None:
         prior = _fit_prior(prior, bgr.shape[:2])
-    imap = interest_map(segs, params, summed_uncommon(segs, params, maps), texture, prior)
+    imap = interest_map(segs, params, total, texture, prior)
     points = find_points(imap, params)
     t3 = time.perf_counter()
     timings["interest"] = (t3 - t2) * 1e3
-    explanations = explain_points(points, segs, params, maps, texture)
+    explanations = explain_points(points, segs, params, maps, texture=rarity, shade=shade)
     descriptions = [
-        line + texture_clause(expl)
+        line + clauses(expl)
         for line, expl in zip(plain_lines(points, hsi), explanations, strict=True)
     ]
     timings["explain"] = (time.perf_counter() - t3) * 1e3

@@ -32,7 +32,8 @@ def test_odd_coloured_blob_is_the_top_point(rng, params, size):
     scores = [p.score for p in res.points]
     assert scores == sorted(scores, reverse=True)
     planes = [e["plane"] for e in res.explanations[0]]
-    assert planes == ["H", "S", "I"] + (["texture"] if params.texture_weight else [])
+    extra = ["texture"] * bool(params.texture_weight) + ["shade"] * bool(params.shadow_gate)
+    assert planes == ["H", "S", "I", *extra]
     contributions = {e["plane"]: e["contribution"] for e in res.explanations[0][:3]}
     assert max(contributions.values()) > 0
 
@@ -108,8 +109,10 @@ def ledge_and_plant(rng):
 
 def test_isotropy_prefers_a_compact_spot_to_a_ledge_shadow(rng):
     img = ledge_and_plant(rng)
-    plain = analyze(img, DEFAULT.replace(isotropy=0.0))
+    ungated = DEFAULT.replace(shadow_gate=0.0)  # shape alone, not colour (``test_shadow``)
+    plain = analyze(img, ungated.replace(isotropy=0.0))
     assert abs(plain.points[0].y - 34) < 5, "without the shape term the shadow wins"
+    assert abs(analyze(img, ungated).points[0].y - 84.5) < 3
     res = analyze(img, DEFAULT)
     top = res.points[0]
     assert abs(top.x - 99.5) < 3 and abs(top.y - 84.5) < 3

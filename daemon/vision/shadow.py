@@ -1,0 +1,109 @@
+"""Shadow likelihood: how much each pixel looks like lit rock of its surroundings in shade.
+
+The seed's authors found their interest maps drawn to "structural shadow": the dark pockets
+under ledges of a jagged outcrop are rare in intensity, so the uncommon map ranks them with
+the wet stains and veins a geologist wants. Shape alone (``isotropy``) cannot tell a short
+shadow from a stain. Colour can, because a shadow changes the light, not the rock:
+
+* it is darker than the lit rock around it;
+* its chromaticity is the rock's, moved only along the direction a change of illuminant
+  moves it: not at all (shade of a grey overcast) or towards blue (in clear daylight the
+  shade is lit by the sky alone, whose light is bluer than the sun's; Finlayson, Hordley,
+  Lu & Drew, "On the removal of shadows from images", PAMI 28(1), 2006: in log-chromaticity
+  illuminant changes move a surface along one line);
+* a material change (a wet stain, whose colour deepens; a plant; a vein) moves it elsewhere.
+
+Each pixel's log colour at a fine scale is compared with the lit rock around it (a
+Gaussian average of the pixels not darker than their surroundings, so a shadow is not
+compared with itself). The likelihood is darkness x purity x tint evidence:
+
+* darkness: the log brightness deficit, 1 from ``_DARK`` (1.5 times darker);
+* purity: how close the chromaticity shift lies to the illuminant line (a cone around it);
+* tint evidence: 1 for a shift towards blue by ``_TINT``; on rock coloured enough that a
+  change of material would have shown (``_HOST_CHROMA``), 1 for any shift from none
+  towards blue. On grey rock, or in a grey image, a darker patch with no colour of its own
+  is as likely a dark material (a wet stain on grey gypsum, a crack) and gets no shadow
+  evidence unless it turns blue.
+
+What it cannot see: an untinted shadow on grey rock, and a dark grey target that happens to
+sit on the illuminant line of its host.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .params import VisionParams
+
+__all__ = ["shadow_likelihood"]
+
+_OFFSET = 8.0
+"""Log colour is taken of the 8-bit value + 8: sensor noise in near-black pixels is not blown
+up into large log ratios."""
+_MEAN = np.full((1, 3), 1.0 / 3.0, np.float32)
+"""Log brightness: the mean of the three log channels."""
+_FINE = 1.5
+"""Gaussian sigma (analysed pixels) of a pixel's own colour: sensor noise averaged, a
+ledge shadow a few pixels thick kept."""
+_LIT = 0.15
+"""Pixels more than this log brightness below their surroundings are not lit rock."""
+_DARK = 0.4
+"""Log brightness deficit at which darkness counts fully (1.5 times darker)."""
+_TINT = 0.15
+"""Shift towards blue along the illuminant line at which the tint evidence is full."""
+_UNTINTED = 0.04
+"""On coloured rock, a shift along the line from none up counts fully, and fades to nothing
+this far on the warm side (a wet stain deepens its rock's colour, away from blue)."""
+_CONE = (0.04, 0.3)
+"""Purity: a shift counts as an illuminant change while its distance from the line is below
+0.04 + 0.3 x its length along it, falling linearly to 0 there."""
+_HOST_CHROMA = 0.06
+"""Log spread between the surroundings' brightest and dimmest channel below which rock is too
+grey for an untinted darkening to tell shade from a dark material; full evidence at twice."""
+
+
+def shadow_likelihood(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
+    """Per-pixel likelihood (0..1) that a pixel is shaded rock of its surroundings,
+    (M, N) float32.
+
+    Examples
+    --------
+    >>> from daemon.vision.params import DEFAULT
+    >>> img = np.full((60, 80, 3), (60, 80, 150), np.uint8)        # red sandstone
+    >>> img[28:34, 10:70] = (60 * 0.5, 80 * 0.41, 150 * 0.36)      # in the sky's shade
+    >>> img[10:16, 30:36] = (40, 110, 40)                          # a darker green plant
+    >>> shade = shadow_likelihood(img, DEFAULT)
+    >>> bool(shade[31, 40] > 0.8), round(float(shade[13, 33]), 2)
+    (True, 0.0)
+    >>> grey = np.full((60, 80, 3), 120, np.uint8)
+    >>> grey[28:34, 10:70] = 50                                    # a dark band on grey
+    >>> float(shadow_likelihood(grey, DEFAULT).max())
+    0.0
+    """
+    logs = cv2.log(bgr.astype(np.float32) + np.float32(_OFFSET))
+    sigma = params.shadow_surround
+    own = cv2.GaussianBlur(logs, (0, 0), _FINE)
+    brightness = cv2.transform(logs, _MEAN)
+    deficit = cv2.GaussianBlur(brightness, (0, 0), _FINE) - cv2.GaussianBlur(
+        brightness, (0, 0), sigma
+    )
+    lit = (deficit > -_LIT).astype(np.float32)
+    weight = cv2.GaussianBlur(lit, (0, 0), sigma) + np.float32(1e-3)
+    host = cv2.GaussianBlur(logs * lit[..., None], (0, 0), sigma) / weight[..., None]
+    shift = own - host
+    blue, green, red = cv2.split(shift)
+    darkness = np.clip(-(blue + green + red) / (3.0 * _DARK), 0.0, 1.0)
+    # The chromaticity shift, relative to red, split along and across the illuminant line.
+    u = np.asarray(params.shadow_tint, np.float32)
+    u /= np.float32(max(float(np.hypot(*u)), 1e-6))
+    db, dg = blue - red, green - red
+    along = db * u[0] + dg * u[1]
+    across = np.abs(dg * u[0] - db * u[1])
+    purity = np.clip(1.0 - across / (_CONE[0] + _CONE[1] * np.abs(along)), 0.0, 1.0)
+    tinted = np.clip(along / _TINT, 0.0, 1.0)
+    chroma = host.max(axis=2) - host.min(axis=2)
+    untinted = np.clip(1.0 + along / _UNTINTED, 0.0, 1.0) * np.clip(
+        chroma / _HOST_CHROMA - 1.0, 0.0, 1.0
+    )
+    return (darkness * purity * np.maximum(tinted, untinted)).astype(np.float32)

@@ -1,0 +1,103 @@
+"""Shadow likelihood (``vision.shadow``) and the gate that keeps shade out of the interest."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from daemon.vision.params import DEFAULT, UNCOMMON, VisionParams
+from daemon.vision.pipeline import analyze
+from daemon.vision.shadow import shadow_likelihood
+
+SKY_SHADE = np.array([0.55, 0.45, 0.40])  # B, G, R kept in the sky's shade
+RED_ROCK = (60, 80, 150)
+
+
+def rock(colour, shape=(120, 200), seed=0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return np.asarray(colour, np.float64) + rng.normal(0, 3, (*shape, 3))
+
+
+def wet(img: np.ndarray, mask: np.ndarray) -> None:
+    """Wet rock: darker, its colour deepened (``daemon.scene``'s wet stain)."""
+    host = img[mask]
+    grey = host.mean(axis=1, keepdims=True)
+    img[mask] = (grey + (host - grey) * 1.6) * 0.55
+
+
+def u8(img: np.ndarray) -> np.ndarray:
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def test_sky_shade_is_shadow_and_a_wet_stain_is_not() -> None:
+    img = rock(RED_ROCK)
+    img[30:38, 20:180] *= SKY_SHADE
+    stain = np.zeros(img.shape[:2], bool)
+    stain[75:95, 90:110] = True
+    wet(img, stain)
+    shade = shadow_likelihood(u8(img), DEFAULT)
+    assert shade[32:36, 30:170].mean() > 0.7
+    assert shade[stain].max() < 0.1
+    assert shade[60:70].max() < 0.1  # lit rock
+
+
+def test_untinted_shade_counts_only_on_coloured_rock() -> None:
+    for colour, expected in ((RED_ROCK, True), ((150, 152, 156), False)):
+        img = rock(colour)
+        img[30:38, 20:180] *= 0.45  # overcast shade: darker, the same colour
+        shade = shadow_likelihood(u8(img), DEFAULT)
+        assert bool(shade[32:36, 30:170].mean() > 0.7) is expected, colour
+
+
+def test_a_grey_image_has_no_shadow_evidence() -> None:
+    img = u8(rock((120, 120, 120)).mean(axis=2, keepdims=True).repeat(3, axis=2))
+    img[30:38, 20:180] //= 3
+    assert float(shadow_likelihood(img, DEFAULT).max()) == 0.0
+    gated, plain = analyze(img, DEFAULT), analyze(img, DEFAULT.replace(shadow_gate=0.0))
+    assert [(p.x, p.y) for p in gated.points] == [(p.x, p.y) for p in plain.points]
+
+
+def ledge_and_stain() -> tuple[np.ndarray, np.ndarray]:
+    """A ledge shadow short enough to pass as a blob, and a smaller wet stain."""
+    img = rock(RED_ROCK)
+    img[40:54, 40:68] *= SKY_SHADE
+    yy, xx = np.mgrid[:120, :200]
+    stain = (yy - 85) ** 2 + (xx - 140) ** 2 < 5**2
+    wet(img, stain)
+    return u8(img), stain
+
+
+def test_the_gate_takes_a_short_ledge_shadow_off_the_top() -> None:
+    img, stain = ledge_and_stain()
+    for params, on_stain in ((DEFAULT.replace(shadow_gate=0.0), False), (DEFAULT, True)):
+        top = analyze(img, params).points[0]
+        assert bool(stain[round(top.y), round(top.x)]) is on_stain
+    assert UNCOMMON.shadow_gate == 0.0  # the seed's maps and the fastest profile: no gate
+
+
+def test_a_point_in_shade_says_so() -> None:
+    """A weak gate leaves the shadow on top; its line says it is probably shade, the
+    stain's does not."""
+    img, stain = ledge_and_stain()
+    res = analyze(img, DEFAULT.replace(shadow_gate=0.05))
+    assert [bool(stain[round(p.y), round(p.x)]) for p in res.points[:2]] == [False, True]
+    shade = [next(e for e in expl if e["plane"] == "shade") for expl in res.explanations]
+    assert shade[0]["likelihood"] > 0.5 > shade[1]["likelihood"]
+    assert res.descriptions[0].endswith("; probably in shade")
+    assert "shade" not in res.descriptions[1]
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        {"shadow_gate": 1.5},
+        {"shadow_gate": -0.1},
+        {"shadow_surround": 0.0},
+        {"shadow_tint": (0.0, 0.0)},
+        {"shadow_tint": (float("nan"), 0.1)},
+        {"shadow_tint": (0.3,)},
+    ],
+)
+def test_bad_shadow_parameters_are_refused(bad: dict) -> None:
+    with pytest.raises(ValueError, match="shadow"):
+        VisionParams(**bad)
