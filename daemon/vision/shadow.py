@@ -31,6 +31,8 @@ sit on the illuminant line of its host.
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
 
@@ -50,6 +52,8 @@ _LIT = 0.15
 """Pixels more than this log brightness below their surroundings are not lit rock."""
 _DARK = 0.4
 """Log brightness deficit at which darkness counts fully (1.5 times darker)."""
+_SPLIT = np.array([[-1.0 / (3.0 * _DARK)] * 3, [1.0, 0.0, -1.0], [0.0, 1.0, -1.0]], np.float32)
+"""A log colour shift to darkness (1 at ``_DARK``), log(B / R) and log(G / R) shifts."""
 _TINT = 0.15
 """Shift towards blue along the illuminant line at which the tint evidence is full."""
 _UNTINTED = 0.04
@@ -84,26 +88,23 @@ def shadow_likelihood(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
     logs = cv2.log(bgr.astype(np.float32) + np.float32(_OFFSET))
     sigma = params.shadow_surround
     own = cv2.GaussianBlur(logs, (0, 0), _FINE)
-    brightness = cv2.transform(logs, _MEAN)
-    deficit = cv2.GaussianBlur(brightness, (0, 0), _FINE) - cv2.GaussianBlur(
-        brightness, (0, 0), sigma
-    )
-    lit = (deficit > -_LIT).astype(np.float32)
+    around = cv2.GaussianBlur(cv2.transform(logs, _MEAN), (0, 0), sigma)
+    lit = (cv2.subtract(cv2.transform(own, _MEAN), around) > -_LIT).astype(np.float32)
     weight = cv2.GaussianBlur(lit, (0, 0), sigma) + np.float32(1e-3)
-    host = cv2.GaussianBlur(logs * lit[..., None], (0, 0), sigma) / weight[..., None]
-    shift = own - host
-    blue, green, red = cv2.split(shift)
-    darkness = np.clip(-(blue + green + red) / (3.0 * _DARK), 0.0, 1.0)
-    # The chromaticity shift, relative to red, split along and across the illuminant line.
-    u = np.asarray(params.shadow_tint, np.float32)
-    u /= np.float32(max(float(np.hypot(*u)), 1e-6))
-    db, dg = blue - red, green - red
-    along = db * u[0] + dg * u[1]
-    across = np.abs(dg * u[0] - db * u[1])
-    purity = np.clip(1.0 - across / (_CONE[0] + _CONE[1] * np.abs(along)), 0.0, 1.0)
-    tinted = np.clip(along / _TINT, 0.0, 1.0)
-    chroma = host.max(axis=2) - host.min(axis=2)
-    untinted = np.clip(1.0 + along / _UNTINTED, 0.0, 1.0) * np.clip(
-        chroma / _HOST_CHROMA - 1.0, 0.0, 1.0
+    host = cv2.GaussianBlur(cv2.multiply(logs, cv2.merge([lit] * 3)), (0, 0), sigma)
+    host = cv2.divide(host, cv2.merge([weight] * 3))
+    # The shift from the lit rock: darkness, and the chromaticity shift relative to red, split
+    # along and across the illuminant line, in one pass (exactly 0 in a grey image).
+    darkness, db, dg = cv2.split(cv2.transform(cv2.subtract(own, host), _SPLIT))
+    u0, u1 = np.asarray(params.shadow_tint, np.float64) / math.hypot(*params.shadow_tint)
+    along = cv2.addWeighted(db, u0, dg, u1, 0.0)
+    across = cv2.addWeighted(dg, u0, db, -u1, 0.0)
+    purity = 1.0 - np.abs(across) / (_CONE[0] + _CONE[1] * np.abs(along))
+    tinted = along / np.float32(_TINT)
+    blue, green, red = cv2.split(host)
+    chroma = cv2.max(cv2.max(blue, green), red) - cv2.min(cv2.min(blue, green), red)
+    untinted = np.clip(1.0 + along / np.float32(_UNTINTED), 0.0, 1.0) * np.clip(
+        chroma / np.float32(_HOST_CHROMA) - 1.0, 0.0, 1.0
     )
-    return (darkness * purity * np.maximum(tinted, untinted)).astype(np.float32)
+    evidence = np.maximum(np.clip(tinted, 0.0, 1.0), untinted)
+    return np.clip(darkness, 0.0, 1.0) * np.clip(purity, 0.0, 1.0) * evidence
