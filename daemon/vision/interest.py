@@ -255,9 +255,9 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     yields no points, and nothing commoner than typical is one. A peak's patch is the
     connected part of the map above ``valley`` x its height over the map's median that
     holds it; a peak whose patch holds a chosen point is that point's target again. A
-    point's radius is that of a disc of its patch's area, and its position the centre of
-    mass of the patch's top (``_TOP``); without ``valley`` they are the separation and the
-    refined peak. Patches are taken on the
+    point's radius is that of a disc of the area above half its height (``_EXTENT``), and its
+    position the centre of mass of the patch's top (``_TOP``); without ``valley`` they are
+    the separation and the refined peak. Patches are taken on the
     plain blurred map when ``grid`` was reshaped by ``isotropy``.
 
     Examples
@@ -309,6 +309,9 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
                 patch = _patch(support, r, c, level)
                 if any(patch[q[0], q[1]] for q in chosen):
                     continue
+                if params.valley != _EXTENT:
+                    extent = base + _EXTENT * (float(support[r, c]) - base)
+                    patch = _patch(support, r, c, extent)
                 radius = max(1.0, math.sqrt(float(patch.sum()) / math.pi))
                 top = base + _TOP * (float(support[r, c]) - base)
                 y, x = _centre(support, _patch(support, r, c, top), top, (y, x))
@@ -323,6 +326,10 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     ]
 
 
+_EXTENT = 0.5
+"""A point's radius is that of a disc of the area of its patch above half its height (the
+full width at half maximum of a blob), whatever ``valley`` says about which peaks are one
+target."""
 _TOP = 0.9
 """A point sits at the centre of mass of the top of its patch (above 90 % of its height):
 on a wide patch that is steadier under noise than its highest cell, on a small spot it is

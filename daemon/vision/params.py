@@ -230,7 +230,7 @@ UNCOMMON = VisionParams(
     blur_mode="sigma",
     blur_fraction=0.008,
     isotropy=0.75,
-    valley=0.7,
+    valley=0.4,
     max_pixels=1 << 17,
 )
 """Our best variant of the seed's method alone (H, S, I uncommon maps, no texture): the
@@ -245,7 +245,7 @@ fastest profile, and the best on small colour targets on layered rock. Each depa
 * surprisal uncommon values, continuous in class area, plus half the rarity of the value
   itself within its plane (the dark tail of one broad class: a crack, a pit);
 * B = 0.8 % of the image diagonal, so the same outcrop gives the same points at any size;
-* two peaks are one target unless the map dips below 70 % of the lower one between them,
+* two peaks are one target unless the map dips below 40 % of the lower one between them,
   so three points are three targets whatever their size;
 * 3/4 of the score depends on the roundness of the surroundings, which takes the long
   ledge shadows the seed papers complain about off the top;
