@@ -256,8 +256,9 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     connected part of the map above ``valley`` x its height over the map's median that
     holds it; a peak whose patch holds a chosen point is that point's target again. A
     point's radius is that of a disc of the area above half its height (``_EXTENT``), and its
-    position the centre of mass of the patch's top (``_TOP``); without ``valley`` they are
-    the separation and the refined peak. Patches are taken on the
+    position the centre of mass of the patch's top (``_TOP``), or the centre of a ring
+    (``_ring``); without ``valley`` they are the separation and the refined peak.
+    Patches are taken on the
     plain blurred map when ``grid`` was reshaped by ``isotropy``.
 
     Examples
@@ -312,9 +313,14 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
                 if params.valley != _EXTENT:
                     extent = base + _EXTENT * (float(support[r, c]) - base)
                     patch = _patch(support, r, c, extent)
-                radius = max(1.0, math.sqrt(float(patch.sum()) / math.pi))
-                top = base + _TOP * (float(support[r, c]) - base)
-                y, x = _centre(support, _patch(support, r, c, top), top, (y, x))
+                ring = _ring(patch)
+                if ring is not None:  # aim at the ring's centre; it spans what it encloses
+                    y, x, area = ring
+                else:
+                    top = base + _TOP * (float(support[r, c]) - base)
+                    y, x = _centre(support, _patch(support, r, c, top), top, (y, x))
+                    area = float(patch.sum())
+                radius = max(1.0, math.sqrt(area / math.pi))
             chosen.append((r, c, y, x, value, radius))
             if len(chosen) == params.top_n:
                 break
@@ -346,6 +352,25 @@ def _centre(
     weight = support[ys, xs] - level + 1e-9
     y, x = float(ys @ weight / weight.sum()), float(xs @ weight / weight.sum())
     return (y, x) if patch[round(y), round(x)] else peak
+
+
+def _ring(patch: np.ndarray) -> tuple[float, float, float] | None:
+    """The centre (y, x) and enclosed area of a ring-shaped patch, or None for any other
+    shape.
+
+    A stain seen from 60 m is interesting at its bright rim and its edges more than in its
+    even interior, so its patch is a ring whose highest part is one side of the rim; the
+    top's centre would aim the next station at the rim. A patch is a ring when the centre
+    of the area it encloses (holes filled) lies in a hole: then that centre is the target's.
+    """
+    inside = np.pad(~patch, 1, constant_values=True).astype(np.uint8)
+    cv2.floodFill(inside, None, (0, 0), 2)  # what is left at 1 is enclosed by the patch
+    holes = inside[1:-1, 1:-1] == 1
+    if not holes.any():
+        return None
+    ys, xs = np.nonzero(patch | holes)
+    y, x = float(ys.mean()), float(xs.mean())
+    return (y, x, float(len(ys))) if holes[round(y), round(x)] else None
 
 
 def _patch(grid: np.ndarray, r: int, c: int, level: float) -> np.ndarray:

@@ -200,3 +200,15 @@ def test_summed_uncommon_equals_the_weighted_sum_of_the_maps(rng, weights):
         uncommon_map(s, params) - uncommon_map(s, params.replace(value_rarity=0)) for s in segs
     ]
     assert all(t.max() > 0 and (t[segs[i].labels == 0] == 0).all() for i, t in enumerate(tails))
+
+
+def test_a_ring_is_aimed_at_its_centre() -> None:
+    """A stain interesting at its rim, most on one side: the point is the ring's centre,
+    not the high side (the next station must be aimed at the stain, not at its rim)."""
+    yy, xx = np.mgrid[:120, :160].astype(np.float32)
+    r = np.hypot(yy - 60, xx - 80)
+    ring = np.exp(-((r - 20) ** 2) / 18.0) * (1.0 + 0.5 * (yy > 70))
+    params = DEFAULT.replace(isotropy=0.0)
+    (point,) = find_points(InterestMap(ring.astype(np.float32), 1, ring.shape), params)[:1]
+    assert abs(point.x - 80) < 1.5 and abs(point.y - 60) < 1.5
+    assert 20 < point.radius < 30
