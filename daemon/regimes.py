@@ -28,7 +28,16 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
-from daemon.scene import _ROCKS, Scene, Target, _blob, _noise, _paint_target, outcrop_scene
+from daemon.scene import (
+    _ROCKS,
+    SKY_SHADE,
+    Scene,
+    Target,
+    _blob,
+    _noise,
+    _paint_target,
+    outcrop_scene,
+)
 
 __all__ = [
     "DESCRIPTIONS",
@@ -152,7 +161,7 @@ def _ledge_shadows(
 
 def _darken(img: np.ndarray, shadow: np.ndarray, factor: float) -> None:
     """Shade like ``outcrop_scene``: dark and slightly blue, lit by the sky only."""
-    img[shadow] *= np.array([0.55, 0.45, 0.40], np.float32) * factor
+    img[shadow] *= SKY_SHADE * factor
 
 
 def _finish(

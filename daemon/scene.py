@@ -16,7 +16,11 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-__all__ = ["TARGET_KINDS", "Scene", "Target", "outcrop_scene"]
+__all__ = ["SKY_SHADE", "TARGET_KINDS", "Scene", "Target", "outcrop_scene"]
+
+SKY_SHADE = np.array([0.55, 0.45, 0.40], np.float32)
+"""B, G, R kept by rock in a ledge's shade: lit by the sky alone, darker and bluer than in
+the sun (``daemon.vision.shadow`` reads shade by this direction, not these numbers)."""
 
 TARGET_KINDS = ("wet_stain", "plant", "vein_knot", "red_spot")
 
@@ -177,7 +181,7 @@ def outcrop_scene(
             m = np.zeros(shape, np.uint8)
             cv2.ellipse(m, (int(cx), int(cy)), axes, rng.uniform(-10, 10), 0, 360, 1, -1)
             shadow |= m.astype(bool)
-        img[shadow] *= np.array([0.55, 0.45, 0.40], np.float32) * rng.uniform(0.8, 1.1)
+        img[shadow] *= SKY_SHADE * rng.uniform(0.8, 1.1)
 
     # Planted targets, kept apart from each other and from the sky.
     count = int(rng.integers(1, 4)) if n_targets is None else n_targets

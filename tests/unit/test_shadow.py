@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from daemon.scene import SKY_SHADE
 from daemon.vision.params import DEFAULT, UNCOMMON, VisionParams
 from daemon.vision.pipeline import analyze
 from daemon.vision.shadow import shadow_likelihood
 
-SKY_SHADE = np.array([0.55, 0.45, 0.40])  # B, G, R kept in the sky's shade
 RED_ROCK = (60, 80, 150)
 
 
