@@ -306,11 +306,10 @@ async def test_worker_killed_mid_survey_fails_that_survey_only(
     status = await client.call(SurveyStatus())
     old_pid = status.worker_pid
     assert old_pid == daemon.ready["worker_pid"] != 0
-    station = (await client.command(SurveyStart(rows=2, cols=3))).detail
-    # Frozen while the tiles arrive, the worker cannot finish the analysis before it is killed,
-    # however fast the analysis is.
-    await _until(progress, station, {"tiles"})
+    # Frozen before the survey starts (nothing asks the worker before the analysis), it cannot
+    # finish the analysis before it is killed, however fast the analysis is.
     os.kill(old_pid, signal.SIGSTOP)
+    station = (await client.command(SurveyStart(rows=2, cols=3))).detail
     await _until(progress, station, {"analysis"})
     os.kill(old_pid, signal.SIGKILL)
     final = await _until(progress, station, {"failed", "done"})
