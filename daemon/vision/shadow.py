@@ -15,7 +15,10 @@ shadow from a stain. Colour can, because a shadow changes the light, not the roc
 
 Each pixel's log colour at a fine scale is compared with the lit rock around it (a
 Gaussian average of the pixels not darker than their surroundings, so a shadow is not
-compared with itself). The likelihood is darkness x purity x tint evidence:
+compared with itself), and with that average taken a little above, below, left and right
+of it (``_SIDE``): a ledge shadow cast across a bed contact is the shade of one bed at its
+top and of the other at its bottom, and the mixture of both is neither. The best of the
+five comparisons counts. The likelihood is darkness x purity x tint evidence:
 
 * darkness: the log brightness deficit, 1 from ``_DARK`` (1.5 times darker);
 * purity: how close the chromaticity shift lies to the illuminant line (a cone around it);
@@ -25,8 +28,17 @@ compared with itself). The likelihood is darkness x purity x tint evidence:
   is as likely a dark material (a wet stain on grey gypsum, a crack) and gets no shadow
   evidence unless it turns blue.
 
+Two shape rules finish it. A dark line thinner than ``_THIN`` is a crack or a vein, not the
+shadow of a ledge (a ledge deep enough to matter casts a band): it is opened away. What
+remains is widened by ``_EDGE``, because a shadow's edge, half lit at the fine scale, is as
+rare in intensity as its core and would otherwise keep a ring of interest around every
+gated shadow.
+
 What it cannot see: an untinted shadow on grey rock, and a dark grey target that happens to
-sit on the illuminant line of its host.
+sit on the illuminant line of its host. Measured on ``bench.quality`` (120 scenes a regime),
+the side comparisons and the two shape rules took the best point off decoys on the large
+regime from 10.8 to 1.7 % and on scenes with no target from 41.7 to 5.0 %, and top-1 on large
+targets from 70.0 to 81.7 %, on veins from 74.2 to 80.0 %; ``bench.real`` did not move.
 """
 
 from __future__ import annotations
@@ -62,6 +74,14 @@ this far on the warm side (a wet stain deepens its rock's colour, away from blue
 _CONE = (0.04, 0.3)
 """Purity: a shift counts as an illuminant change while its distance from the line is below
 0.04 + 0.3 x its length along it, falling linearly to 0 there."""
+_SIDE = 5.0 / 3.0
+"""The side comparisons look this many ``shadow_surround`` sigmas away: past the contact a
+shadow straddles, within the bed on either side."""
+_THIN = 2
+"""Radius (analysed pixels) of the opening: dark lines up to 2 x 2 + 1 = 5 px thick are not
+shadows."""
+_EDGE = 2
+"""Radius (analysed pixels) the likelihood is widened by: the reach of the fine scale's blur."""
 _HOST_CHROMA = 0.06
 """Log spread between the surroundings' brightest and dimmest channel below which rock is too
 grey for an untinted darkening to tell shade from a dark material; full evidence at twice."""
@@ -93,6 +113,22 @@ def shadow_likelihood(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
     weight = cv2.GaussianBlur(lit, (0, 0), sigma) + np.float32(1e-3)
     host = cv2.GaussianBlur(cv2.multiply(logs, cv2.merge([lit] * 3)), (0, 0), sigma)
     host = cv2.divide(host, cv2.merge([weight] * 3))
+    shade = _compare(own, host, params)
+    d = _SIDE * sigma
+    for dx, dy in ((d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d)):
+        shift = np.float32([[1.0, 0.0, dx], [0.0, 1.0, dy]])
+        side = cv2.warpAffine(host, shift, host.shape[1::-1], borderMode=cv2.BORDER_REPLICATE)
+        shade = cv2.max(shade, _compare(own, side, params))
+    shade = cv2.morphologyEx(shade, cv2.MORPH_OPEN, _disc(_THIN))
+    return cv2.dilate(shade, _disc(_EDGE))
+
+
+def _disc(radius: int) -> np.ndarray:
+    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
+
+
+def _compare(own: np.ndarray, host: np.ndarray, params: VisionParams) -> np.ndarray:
+    """Shadow likelihood of each pixel's own log colour against one host log colour."""
     # The shift from the lit rock: darkness, and the chromaticity shift relative to red, split
     # along and across the illuminant line, in one pass (exactly 0 in a grey image).
     darkness, db, dg = cv2.split(cv2.transform(cv2.subtract(own, host), _SPLIT))

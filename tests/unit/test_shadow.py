@@ -57,6 +57,41 @@ def test_a_grey_image_has_no_shadow_evidence() -> None:
     assert [(p.x, p.y) for p in gated.points] == [(p.x, p.y) for p in plain.points]
 
 
+def test_a_shadow_across_a_bed_contact_is_the_shade_of_both_beds() -> None:
+    """Red sandstone above, buff below: the surroundings' mean is neither bed, so only the
+    comparison with each bed on its side recognises the shadow straddling the contact."""
+    img = rock(RED_ROCK)
+    img[60:] = rock((110, 150, 190))[60:]
+    img[52:68, 30:170] *= SKY_SHADE
+    shade = shadow_likelihood(u8(img), DEFAULT)
+    assert shade[54:66, 40:160].mean() > 0.8
+    assert shade[54:66, 40:160].min() > 0.3
+
+
+def test_a_crack_is_not_a_shadow_and_a_shadows_edge_is() -> None:
+    """The same overcast darkening on coloured rock: a 2 px crack is at most partly shade (a
+    ledge casts a band; the fine scale's blur spreads the crack's darkness over 5 px), an
+    8 px band is, out to its half-lit edge."""
+    img = rock(RED_ROCK)
+    img[30:32, 20:180] *= 0.45
+    img[80:88, 20:180] *= 0.45
+    shade = shadow_likelihood(u8(img), DEFAULT)
+    assert shade[30:32, 30:170].max() < 0.3
+    assert shade[80:88, 30:170].mean() > 0.8
+    assert shade[[79, 88], 30:170].mean() > 0.6  # the edge rows, half lit at the fine scale
+
+
+def test_the_default_profile_finds_a_dark_crack_on_red_rock() -> None:
+    img = rock(RED_ROCK, seed=3)
+    img[40:54, 40:68] *= SKY_SHADE  # a short ledge shadow, a decoy
+    yy, xx = np.mgrid[:120, :200]
+    crack = (np.abs(yy - (0.5 * xx + 10)) < 1.0) & (xx > 120) & (xx < 180)
+    img[crack] *= 0.3
+    top = analyze(u8(img), DEFAULT).points[0]
+    near = np.hypot(yy[crack] - top.y, xx[crack] - top.x).min()
+    assert near < 4, (top.x, top.y)
+
+
 def ledge_and_stain() -> tuple[np.ndarray, np.ndarray]:
     """A ledge shadow short enough to pass as a blob, and a smaller wet stain."""
     img = rock(RED_ROCK)
