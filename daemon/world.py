@@ -14,8 +14,9 @@ resolution can show and no more:
 * a planted wet stain whose structure resolves only close up: a darker, shadowed, bluish core
   (~10 % of its radius; 1-2 px at 300 m, tens of px at 10 m) and a bright efflorescence rim
   (1.5 % of its radius: invisible from afar);
-* decoys at every scale: ledge shadows, a cluster of grey nodules (each 0.03 deg), a network
-  of thin white veins (0.004 deg wide: a few grey pixels at 60 m, lines at 10 m);
+* decoys at every scale: ledge shadows (lit by the sky alone, as every simulated shadow is:
+  ``daemon.scene.SKY_SHADE``), a cluster of grey nodules (each 0.03 deg), a network of thin
+  white veins (0.004 deg wide: a few grey pixels at 60 m, lines at 10 m);
 * shapes are drawn with the coverage of a box pixel, so what is smaller than a pixel fades
   instead of flickering; the world has no edge (every direction is rock or sky).
 
@@ -29,6 +30,8 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+
+from .scene import SKY_SHADE
 
 __all__ = ["Feature", "World"]
 
@@ -155,10 +158,10 @@ class World:
 
     def _decoy(self, img, f: Feature, i: int, pan, tilt, *, fp: float) -> None:
         dx, dy = pan - f.pan, tilt - f.tilt
-        if f.kind == "ledge_shadow":  # a long dark lens along the beds
+        if f.kind == "ledge_shadow":  # a long dark lens along the beds, lit by the sky alone
             minor = f.radius * self._shadow_height[i]
-            cover = _cover(np.hypot(dx * minor / f.radius, dy), minor, fp)
-            img *= (1.0 - 0.55 * cover)[..., None]
+            cover = _cover(np.hypot(dx * minor / f.radius, dy), minor, fp)[..., None]
+            img *= 1.0 - cover * (1.0 - SKY_SHADE)
         elif f.kind == "nodules":  # grey concretions, each 0.03 deg
             for nx, ny in self._nodules:
                 cover = _cover(np.hypot(dx - nx * f.radius, dy - ny * f.radius), 0.015, fp)

@@ -41,6 +41,19 @@ def test_the_stain_core_is_the_close_range_feature() -> None:
     assert rim.sum() > centre.sum() + 30
 
 
+def test_a_ledge_shadow_is_lit_by_the_sky() -> None:
+    """As in every simulated scene (``daemon.scene.SKY_SHADE``): darker than its rock and
+    bluer, as shade on a clear day is."""
+    world = World(3)
+    ledge = next(f for f in world.features if f.kind == "ledge_shadow")
+    view = world.render(*_grid(ledge.pan, ledge.tilt, 2 * ledge.radius, FAR), FAR)
+    rows, cols = view.shape[:2]
+    inside = view[rows // 2, cols // 2].astype(float)
+    beside = view[rows // 2, 2].astype(float)  # the same bed, past the shadow's end
+    assert inside.sum() < 0.6 * beside.sum()
+    assert inside[0] / inside[2] > 1.2 * beside[0] / beside[2]
+
+
 def test_deterministic_by_seed_and_without_edge() -> None:
     a, b, c = World(3), World(3), World(4)
     grid = _grid(0.0, 0.0, 20.0, FAR)
