@@ -77,6 +77,9 @@ _CONE = (0.04, 0.3)
 _SIDE = 5.0 / 3.0
 """The side comparisons look this many ``shadow_surround`` sigmas away: past the contact a
 shadow straddles, within the bed on either side."""
+_CANDIDATE = 0.25
+"""Darkness against the surroundings' mean (a 0.1 log deficit) below which no side is looked
+at: a shadow straddling a contact is darker than the mixture of its two beds."""
 _THIN = 2
 """Radius (analysed pixels) of the opening: dark lines up to 2 x 2 + 1 = 5 px thick are not
 shadows."""
@@ -108,17 +111,35 @@ def shadow_likelihood(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
     logs = cv2.log(bgr.astype(np.float32) + np.float32(_OFFSET))
     sigma = params.shadow_surround
     own = cv2.GaussianBlur(logs, (0, 0), _FINE)
-    around = cv2.GaussianBlur(cv2.transform(logs, _MEAN), (0, 0), sigma)
+    size = bgr.shape[1::-1]
+    around = cv2.resize(_coarse(cv2.transform(logs, _MEAN), sigma), size)
     lit = (cv2.subtract(cv2.transform(own, _MEAN), around) > -_LIT).astype(np.float32)
-    weight = cv2.GaussianBlur(lit, (0, 0), sigma) + np.float32(1e-3)
-    host = cv2.GaussianBlur(cv2.multiply(logs, cv2.merge([lit] * 3)), (0, 0), sigma)
-    host = cv2.divide(host, cv2.merge([weight] * 3))
-    shade = _compare(own, host, params)
-    d = _SIDE * sigma
-    for dx, dy in ((d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d)):
-        shift = np.float32([[1.0, 0.0, dx], [0.0, 1.0, dy]])
-        side = cv2.warpAffine(host, shift, host.shape[1::-1], borderMode=cv2.BORDER_REPLICATE)
-        shade = cv2.max(shade, _compare(own, side, params))
+    # The lit pixels' mean log colour: their blurred sum over their blurred weight.
+    both = _coarse(cv2.merge([*cv2.split(cv2.multiply(logs, cv2.merge([lit] * 3))), lit]), sigma)
+    weight = cv2.merge([both[..., 3] + np.float32(1e-3)] * 3)
+    host = cv2.resize(cv2.divide(both[..., :3], weight), size)
+    # The shift from the lit rock is linear in log colour: darkness, and the chromaticity
+    # shift along and across the illuminant line (exactly 0 in a grey image).
+    mine = _project(own, params.shadow_tint)
+    ref = _project(host, params.shadow_tint)
+    blue, green, red = cv2.split(host)
+    chroma = cv2.max(cv2.max(blue, green), red) - cv2.min(cv2.min(blue, green), red)
+    coloured = np.clip(chroma * np.float32(1.0 / _HOST_CHROMA) - 1.0, 0.0, 1.0)
+    shade = _score(mine, ref, coloured)
+    # The sides matter only where a pixel is darker than its surroundings' mean: scored
+    # there alone, on the side hosts' pixels (row, col moved, clipped into the frame).
+    rows, cols = shade.shape
+    dark = np.flatnonzero(cv2.subtract(mine[0], ref[0]) > np.float32(_CANDIDATE))
+    if dark.size:
+        at = [m.reshape(-1)[dark] for m in mine]
+        row, col = np.divmod(dark, cols)
+        best = shade.reshape(-1)[dark]
+        d = max(1, round(_SIDE * sigma))
+        for dy, dx in ((0, d), (0, -d), (d, 0), (-d, 0)):
+            side = np.clip(row - dy, 0, rows - 1) * cols + np.clip(col - dx, 0, cols - 1)
+            host_at = [m.reshape(-1).take(side) for m in (*ref, coloured)]
+            best = np.maximum(best, _score(at, host_at[:3], host_at[3]).reshape(-1))
+        shade.reshape(-1)[dark] = best
     shade = cv2.morphologyEx(shade, cv2.MORPH_OPEN, _disc(_THIN))
     return cv2.dilate(shade, _disc(_EDGE))
 
@@ -127,20 +148,34 @@ def _disc(radius: int) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
 
 
-def _compare(own: np.ndarray, host: np.ndarray, params: VisionParams) -> np.ndarray:
-    """Shadow likelihood of each pixel's own log colour against one host log colour."""
-    # The shift from the lit rock: darkness, and the chromaticity shift relative to red, split
-    # along and across the illuminant line, in one pass (exactly 0 in a grey image).
-    darkness, db, dg = cv2.split(cv2.transform(cv2.subtract(own, host), _SPLIT))
-    u0, u1 = np.asarray(params.shadow_tint, np.float64) / math.hypot(*params.shadow_tint)
-    along = cv2.addWeighted(db, u0, dg, u1, 0.0)
-    across = cv2.addWeighted(dg, u0, db, -u1, 0.0)
-    purity = 1.0 - np.abs(across) / (_CONE[0] + _CONE[1] * np.abs(along))
-    tinted = along / np.float32(_TINT)
-    blue, green, red = cv2.split(host)
-    chroma = cv2.max(cv2.max(blue, green), red) - cv2.min(cv2.min(blue, green), red)
-    untinted = np.clip(1.0 + along / np.float32(_UNTINTED), 0.0, 1.0) * np.clip(
-        chroma / np.float32(_HOST_CHROMA) - 1.0, 0.0, 1.0
+def _coarse(image: np.ndarray, sigma: float) -> np.ndarray:
+    """A Gaussian blur of ``sigma`` pixels on a grid of 2 x 2 means (a sigma-6 surround has
+    nothing finer than that grid: a quarter of the pixels and half the kernel); resized
+    back to the image by the caller, after what is cheaper done on the grid."""
+    rows, cols = image.shape[:2]
+    if sigma < 4.0 or min(rows, cols) < 16:
+        return cv2.GaussianBlur(image, (0, 0), sigma)
+    small = cv2.resize(image, (cols // 2, rows // 2), interpolation=cv2.INTER_AREA)
+    return cv2.GaussianBlur(small, (0, 0), math.sqrt(sigma * sigma - 0.25) / 2.0)
+
+
+def _project(logs: np.ndarray, tint: tuple[float, float]) -> list[np.ndarray]:
+    """Log B, G, R to darkness (1 at ``_DARK``) and the chromaticity along and across the
+    illuminant line ``tint``: exactly 0 on a grey pixel, so a grey image has no evidence."""
+    darkness, db, dg = cv2.split(cv2.transform(logs, _SPLIT))
+    u0, u1 = np.asarray(tint, np.float64) / math.hypot(*tint)
+    return [darkness, cv2.addWeighted(db, u0, dg, u1, 0.0), cv2.addWeighted(dg, u0, db, -u1, 0.0)]
+
+
+def _score(mine: list[np.ndarray], host: list[np.ndarray], coloured: np.ndarray) -> np.ndarray:
+    """Shadow likelihood of each pixel's (darkness, along, across) against a host's;
+    ``coloured`` is how coloured that host is (0..1), which the untinted evidence needs."""
+    darkness, along, across = (cv2.subtract(a, b) for a, b in zip(mine, host, strict=True))
+    cone = cv2.add(cv2.absdiff(along, 0.0) * np.float32(_CONE[1]), _CONE[0])
+    purity = 1.0 - cv2.divide(cv2.absdiff(across, 0.0), cone)
+    tinted = along * np.float32(1.0 / _TINT)
+    untinted = cv2.multiply(np.clip(along * np.float32(1.0 / _UNTINTED) + 1.0, 0.0, 1.0), coloured)
+    evidence = cv2.max(np.clip(tinted, 0.0, 1.0), untinted)
+    return cv2.multiply(
+        cv2.multiply(np.clip(darkness, 0.0, 1.0), np.clip(purity, 0.0, 1.0)), evidence
     )
-    evidence = np.maximum(np.clip(tinted, 0.0, 1.0), untinted)
-    return np.clip(darkness, 0.0, 1.0) * np.clip(purity, 0.0, 1.0) * evidence
