@@ -53,7 +53,7 @@ from bench.baselines import (
     rx_anomaly,
     spectral_residual,
 )
-from daemon.analyze import analyze_image, input_points
+from daemon.products import analyze_image, input_points
 from daemon.regimes import DESCRIPTIONS, REGIMES, seed_cliff
 from daemon.scene import Scene
 from daemon.vision.interest import InterestPoint

@@ -58,8 +58,8 @@ from bench.baselines import (
     rx_anomaly,
     spectral_residual,
 )
-from daemon.analyze import analyze_image, input_points
 from daemon.imageio import ImageError, as_bgr8, read_image
+from daemon.products import analyze_image, input_points
 from daemon.vision.interest import InterestPoint
 from daemon.vision.params import DEFAULT, PAPER, UNCOMMON, VisionParams
 

@@ -28,7 +28,7 @@ import tracemalloc
 import cv2
 import numpy as np
 
-from daemon.analyze import analyze_image
+from daemon.products import analyze_image
 from daemon.scene import outcrop_scene
 from daemon.vision.params import PROFILES, VisionParams
 

@@ -16,7 +16,6 @@ import zenoh
 from protocol.transport import MODES
 from protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
 
-from .analyze import AnalyzeOptions, analyze_files
 from .app import run
 from .camera import CameraError
 from .config import load, validate
@@ -222,8 +221,10 @@ def main(argv: list[str] | None = None) -> int:
             if args.top < 0:
                 parser.error("--top must be >= 0")
             params = params.replace(top_n=args.top)
-        opts = AnalyzeOptions(args.out, args.profile, params, args.downsample, args.json)
-        return analyze_files(args.images, opts)
+        # The science core is loaded only to analyse, never by the service.
+        cli = importlib.import_module(".analyze", __package__)
+        opts = cli.AnalyzeOptions(args.out, args.profile, params, args.downsample, args.json)
+        return cli.analyze_files(args.images, opts)
     if args.command == "run":
         return _run_daemon(args)
     if args.command == "ptu-emulator":

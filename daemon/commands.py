@@ -200,7 +200,7 @@ class Commands:
     async def _survey_status(self, msg: SurveyStatus, src: str) -> Message:
         s = self.survey
         return Status(
-            s.state,
+            s.state.value,
             s.station_id.split("/")[0],
             s.station_id,
             s.distance,

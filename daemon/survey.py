@@ -18,6 +18,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from enum import StrEnum
 from typing import Any
 
 import cv2
@@ -32,7 +33,6 @@ from protocol.messages import (
     SurveyStart,
 )
 
-from .analyze import analyse_into
 from .archive import MANIFEST, Archive, ArchiveError, Station
 from .camera import CameraError, Frame
 from .config import SurveyConfig
@@ -49,11 +49,25 @@ from .worker import VisionWorker, WorkerError
 __all__ = ["Survey", "SurveyBusyError", "SurveyTelemetry"]
 
 _LOGGER = logging.getLogger(__name__)
+
+ANALYSE = "daemon.products:analyse_into"
+"""The worker's job, by name: the service process never imports the science core."""
 CHIPS = 3
 
 
 class SurveyBusyError(RuntimeError):
     """A survey is already running."""
+
+
+class SurveyState(StrEnum):
+    """Where the engine stands; the status message carries the value."""
+
+    IDLE = "idle"
+    """No station running and no choice awaited: a survey may start."""
+    SURVEYING = "surveying"
+    """A station is planning, acquiring, analysing or shooting chips."""
+    AWAITING_CHOICE = "awaiting-choice"
+    """A station finished; its points wait for the operator to choose where to go next."""
 
 
 @dataclass
@@ -101,7 +115,7 @@ class Survey:
         self.tel = telemetry
         self.orientation = orientation or Orientation(None)
         self.site = site or (lambda: {})
-        self.state = "idle"
+        self.state: SurveyState = SurveyState.IDLE
         self.station: Station | None = None
         self.last_error = ""
         self._task: asyncio.Task[None] | None = None
@@ -121,7 +135,7 @@ class Survey:
     @property
     def awaiting_result(self) -> InterestResult | None:
         """The result a choice is awaited for, if one is."""
-        return self._result if self.state == "awaiting-choice" else None
+        return self._result if self.state == SurveyState.AWAITING_CHOICE else None
 
     @property
     def distance(self) -> float:
@@ -148,21 +162,7 @@ class Survey:
             ap.session, ap.index = self.archive.new_session(), 0
             self.memory.clear()
         ap.index += 1
-        plan = {
-            "rows": req.rows,
-            "cols": req.cols,
-            "downsample": req.downsample,
-            "profile": req.profile,
-            "pan0": geometry.pan0,
-            "tilt0": geometry.tilt0,
-            "camera": {
-                "width": geometry.camera.width,
-                "height": geometry.camera.height,
-                "hfov": geometry.camera.hfov,
-            },
-            "mosaic": {"width": geometry.size[0], "height": geometry.size[1]},
-            "order": geometry.serpentine(),
-        }
+        plan = geometry.to_plan(profile=req.profile)
         self.station = self.archive.new_station(
             ap.session,
             ap.index,
@@ -177,7 +177,7 @@ class Survey:
             choice=None,
             timing={},
         )
-        self.state, self.last_error, self._result = "surveying", "", None
+        self.state, self.last_error, self._result = SurveyState.SURVEYING, "", None
         self._task = asyncio.create_task(
             self._run(geometry, req.profile), name="cyborgd.survey.run"
         )
@@ -223,15 +223,7 @@ class Survey:
         session, _, name = station_id.partition("/")
         try:
             plan = json.loads(self.archive.read(session, f"{name}/{MANIFEST}", 1 << 20))["plan"]
-            cam = plan["camera"]
-            return MosaicGeometry(
-                CameraModel(cam["width"], cam["height"], cam["hfov"]),
-                plan["rows"],
-                plan["cols"],
-                plan["pan0"],
-                plan["tilt0"],
-                plan["downsample"],
-            )
+            return MosaicGeometry.from_plan(plan)
         except (ValueError, KeyError, TypeError) as exc:
             raise ArchiveError(f"station {station_id}: no usable plan ({exc})") from None
 
@@ -254,7 +246,7 @@ class Survey:
     async def choose(self, msg: ChooseTarget, by: str) -> str:
         """Record the operator's choice; aim the next station at it, one leg closer."""
         result = self._result
-        if self.state != "awaiting-choice" or result is None or self.station is None:
+        if self.state != SurveyState.AWAITING_CHOICE or result is None or self.station is None:
             raise ValueError("no station is waiting for a choice")
         if msg.station != result.station:
             raise ValueError(f"station {msg.station!r} is not the one waiting ({result.station})")
@@ -263,7 +255,7 @@ class Survey:
             self.station.update(choice={"rank": 0, "by": by, "t": time.time()})
             await self._report(self.station)
             ap.aim, ap.aimed_from, ap.mosaic = None, "", None
-            self.state = "idle"
+            self.state = SurveyState.IDLE
             return f"no target chosen at {result.station}; next station at {self.distance:g} m"
         point = next((p for p in result.points if p.rank == msg.rank), None)
         if point is None:
@@ -278,7 +270,7 @@ class Survey:
             }
         )
         await self._report(self.station)
-        self.state = "idle"
+        self.state = SurveyState.IDLE
         if ap.leg + 1 >= len(self.cfg.approach):
             self._approach = _Approach()
             await self.rig.move_to(point.pan, point.tilt)
@@ -359,7 +351,7 @@ class Survey:
             ta = time.perf_counter()
             prior = await asyncio.to_thread(self._prior, station, geometry)
             doc = await self.worker.call(
-                analyse_into, str(station.partial_dir), mosaic, profile, "mosaic.png", prior
+                ANALYSE, str(station.partial_dir), mosaic, profile, "mosaic.png", prior
             )
             timing["analysis_s"] = self._analysis_estimate = time.perf_counter() - ta
             station.publish_analysis()
@@ -372,7 +364,7 @@ class Survey:
             await asyncio.to_thread(self.memory.remember, station.name, mosaic)
             await self._report(station)  # current by the time anyone hears of the result
             self._result = InterestResult(self.station_id, tuple(points), *geometry.size)
-            self.state = "awaiting-choice"
+            self.state = SurveyState.AWAITING_CHOICE
             self._progress("done", 1, 1, 0.0)
             self.tel.result(self._result)
             self.tel.event(
@@ -394,7 +386,7 @@ class Survey:
     async def _abandon(
         self, station: Station, status: str, reason: str, timing: dict[str, float], t0: float
     ) -> None:
-        self.state, self.last_error = "idle", reason if status == "failed" else ""
+        self.state, self.last_error = SurveyState.IDLE, reason if status == "failed" else ""
         with contextlib.suppress(PtuError, OSError, TimeoutError):
             await asyncio.shield(self.rig.ptu.halt())
         timing["wall_s"] = time.perf_counter() - t0

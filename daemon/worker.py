@@ -11,6 +11,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import ctypes
+import importlib
 import logging
 import multiprocessing as mp
 import os
@@ -49,8 +50,23 @@ def _die_with(parent: int) -> None:
         os._exit(0)
 
 
+Job = Callable[..., Any] | str
+"""A picklable function, or one named ``"package.module:function"`` and imported in the
+worker: the daemon can run the science core without loading it itself."""
+
+
+def _resolve(job: Job) -> Callable[..., Any]:
+    if callable(job):
+        return job
+    module, _, name = job.partition(":")
+    fn = getattr(importlib.import_module(module), name, None) if name else None
+    if not callable(fn):
+        raise TypeError(f"no job {job!r}: want 'package.module:function'")
+    return fn
+
+
 def _serve(conn: Connection, parent: int) -> None:
-    """Worker main loop: run ``(fn, args)`` jobs until the pipe closes or the daemon dies.
+    """Worker main loop: run ``(job, args)`` jobs until the pipe closes or the daemon dies.
 
     The daemon owns the worker's lifetime: a Ctrl-C or a SIGTERM sent to the whole process
     group (a terminal, ``timeout``, systemd's control-group kill) must not kill it
@@ -68,7 +84,7 @@ def _serve(conn: Connection, parent: int) -> None:
         except (EOFError, OSError):
             return
         try:
-            reply = ("ok", fn(*args))
+            reply = ("ok", _resolve(fn)(*args))
         except Exception as exc:  # reported to the daemon, which decides
             reply = ("error", f"{type(exc).__name__}: {exc}", traceback.format_exc())
         try:
@@ -78,8 +94,8 @@ def _serve(conn: Connection, parent: int) -> None:
 
 
 class VisionWorker:
-    """One worker process; :meth:`call` runs a picklable function in it. An async context
-    manager: started on entry, stopped on exit."""
+    """One worker process; :meth:`call` runs a job (a picklable or named function) in it.
+    An async context manager: started on entry, stopped on exit."""
 
     def __init__(self, on_restart: Callable[[str], None] | None = None) -> None:
         self._ctx = mp.get_context("spawn")
@@ -120,8 +136,8 @@ class VisionWorker:
         if self.on_restart is not None:
             self.on_restart(text)
 
-    async def call(self, fn: Callable[..., Any], *args: Any) -> Any:
-        """Run ``fn(*args)`` in the worker; one job at a time.
+    async def call(self, fn: Job, *args: Any) -> Any:
+        """Run ``fn(*args)`` in the worker (``fn`` a :data:`Job`); one job at a time.
 
         Raises WorkerCrashedError if the process dies meanwhile, WorkerError if ``fn`` raised.
         """
@@ -136,7 +152,7 @@ class VisionWorker:
                 raise
 
     @staticmethod
-    def _roundtrip(proc: Any, conn: Connection, fn: Callable[..., Any], args: tuple) -> Any:
+    def _roundtrip(proc: Any, conn: Connection, fn: Job, args: tuple) -> Any:
         try:
             conn.send((fn, args))
             while True:

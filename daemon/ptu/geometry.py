@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -158,6 +159,44 @@ class MosaicGeometry:
         return (
             self.pan0 + (col - (self.cols - 1) / 2.0) * sp,
             self.tilt0 - (row - (self.rows - 1) / 2.0) * st,
+        )
+
+    def to_plan(self, **extra: Any) -> dict[str, Any]:
+        """The station manifest's ``plan``: this geometry as JSON-ready data (with
+        ``extra`` fields such as the profile), read back by :meth:`from_plan`.
+
+        >>> g = MosaicGeometry(CameraModel(360, 288, 30.0), 2, 3, 5.0, -1.0, 4.0)
+        >>> MosaicGeometry.from_plan(g.to_plan(profile="paper")) == g
+        True
+        """
+        return {
+            "rows": self.rows,
+            "cols": self.cols,
+            "downsample": self.downsample,
+            **extra,
+            "pan0": self.pan0,
+            "tilt0": self.tilt0,
+            "camera": {
+                "width": self.camera.width,
+                "height": self.camera.height,
+                "hfov": self.camera.hfov,
+            },
+            "mosaic": {"width": self.size[0], "height": self.size[1]},
+            "order": self.serpentine(),
+        }
+
+    @classmethod
+    def from_plan(cls, plan: dict[str, Any]) -> MosaicGeometry:
+        """The geometry an archived ``plan`` describes; KeyError or TypeError if it is not
+        one."""
+        cam = plan["camera"]
+        return cls(
+            CameraModel(cam["width"], cam["height"], cam["hfov"]),
+            plan["rows"],
+            plan["cols"],
+            plan["pan0"],
+            plan["tilt0"],
+            plan["downsample"],
         )
 
     def serpentine(self) -> list[tuple[int, int]]:

@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 import pytest
 
-from daemon.analyze import analyze_image
+from daemon.products import analyze_image
 from daemon.scene import outcrop_scene
 from daemon.vision.params import DEFAULT
 

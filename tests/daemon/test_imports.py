@@ -1,18 +1,36 @@
 """The service loads what it runs: importing the daemon and its CLI does not load the
-simulator, its scenes or its world (they come in only for a ``sim://`` camera or the demo)."""
+simulator, its scenes or its world (they come in only for a ``sim://`` camera or the demo),
+nor the science core (the vision worker imports it; ``cyborgd analyze`` does)."""
 
 from __future__ import annotations
 
 import subprocess
 import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from daemon.survey import ANALYSE
+from daemon.worker import VisionWorker, WorkerError
 
 SIMULATION = ("daemon.camera.simulated", "daemon.scene", "daemon.world", "daemon.demo")
+SCIENCE = (
+    "daemon.products",
+    "daemon.analyze",
+    "daemon.vision.pipeline",
+    "daemon.vision.cooccurrence",
+    "daemon.vision.texture",
+    "daemon.vision.shadow",
+    "daemon.vision.interest",
+)
 
 
-def test_importing_the_daemon_does_not_load_the_simulator() -> None:
+def test_importing_the_daemon_does_not_load_the_simulator_or_the_science() -> None:
     probe = (
         "import sys, daemon.app, daemon.__main__\n"
-        f"print(','.join(m for m in {SIMULATION!r} if m in sys.modules))"
+        f"print(','.join(m for m in {SIMULATION + SCIENCE!r} if m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
@@ -26,3 +44,15 @@ def test_a_simulated_camera_brings_the_simulator_in() -> None:
     )
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "True"
+
+
+async def test_the_worker_runs_the_science_core_by_name() -> None:
+    """The survey's job is named, imported in the worker only; a bad name is a clear error."""
+    async with VisionWorker() as worker:
+        folder = tempfile.mkdtemp()
+        img = np.full((60, 80, 3), (60, 110, 160), np.uint8)
+        img[25:35, 50:60] = (40, 160, 40)
+        doc = await worker.call(ANALYSE, folder, img, "paper", "t.png")
+        assert doc["points"] and (Path(folder) / "result.json").is_file()
+        with pytest.raises(WorkerError, match="no job"):
+            await worker.call("daemon.products:nothing_here")
