@@ -84,10 +84,33 @@ class Station:
         self.save()
 
     def write_png(self, rel: str, image: np.ndarray) -> None:
+        self._put_png(rel, image)
+        self.save()
+
+    def _put_png(self, rel: str, image: np.ndarray) -> None:
         path = self.folder / rel
         write_png(path, image)
         self._record(rel, path.stat().st_size)
+
+    def add_tile(
+        self, row: int, col: int, image: np.ndarray, pose: tuple[float, float], t: float
+    ) -> str:
+        """Archive a mosaic tile as shot and list it (pose, time) in the manifest; its path."""
+        rel = f"tiles/r{row}c{col}.png"
+        self._put_png(rel, image)
+        entry = {"file": rel, "row": row, "col": col, "pan": pose[0], "tilt": pose[1], "t": t}
+        self.manifest.setdefault("tiles", []).append(entry)
         self.save()
+        return rel
+
+    def add_chip(self, rank: int, image: np.ndarray, pose: tuple[float, float], t: float) -> str:
+        """Archive the full-resolution chip of point ``rank`` and list it; its path."""
+        rel = f"chips/chip{rank}.png"
+        self._put_png(rel, image)
+        entry = {"file": rel, "rank": rank, "pan": pose[0], "tilt": pose[1], "t": t}
+        self.manifest.setdefault("chips", []).append(entry)
+        self.save()
+        return rel
 
     def publish_analysis(self) -> list[str]:
         """Move the worker's finished products into ``analysis/`` in one rename."""

@@ -454,12 +454,7 @@ class Survey:
         image = frame.image
         small = cv2.resize(image, (tw, th), interpolation=cv2.INTER_AREA)
         mosaic[row * th : (row + 1) * th, col * tw : (col + 1) * tw] = small
-        rel = f"tiles/r{row}c{col}.png"
-        station.write_png(rel, image)
-        station.manifest["tiles"].append(
-            {"file": rel, "row": row, "col": col, "pan": pan, "tilt": tilt, "t": frame.timestamp}
-        )
-        station.save()
+        station.add_tile(row, col, image, (pan, tilt), frame.timestamp)
 
     def _points(self, doc: dict[str, Any], geometry: MosaicGeometry) -> list[InterestPoint]:
         points = []
@@ -587,12 +582,7 @@ class Survey:
     def _save_chip(
         self, station: Station, point: InterestPoint, pose: tuple[float, float], frame: Frame
     ) -> Chip:
-        rel = f"chips/chip{point.rank}.png"
-        station.write_png(rel, frame.image)
-        station.manifest["chips"].append(
-            {"file": rel, "rank": point.rank, "pan": pose[0], "tilt": pose[1], "t": frame.timestamp}
-        )
-        station.save()
+        rel = station.add_chip(point.rank, frame.image, pose, frame.timestamp)
         ok, jpeg = cv2.imencode(".jpg", frame.image, [cv2.IMWRITE_JPEG_QUALITY, 85])
         return Chip(self.station_id, point.rank, *pose, rel, jpeg.tobytes() if ok else b"")
 

@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from daemon.archive import Archive, ArchiveError
@@ -128,6 +129,24 @@ def test_archive_serves_products_and_nothing_else(tmp_path: Path) -> None:
             archive.read(bad_session, bad_product, 1000)
     with pytest.raises(ArchiveError, match="over the 5-byte"):
         archive.read(session, "st01-300m/notes.txt", 5)
+
+
+def test_tiles_and_chips_are_listed_with_their_poses(tmp_path: Path) -> None:
+    archive = Archive(tmp_path / "a")
+    archive.open()
+    station = archive.new_station(archive.new_session(), 1, 300.0)
+    image = np.full((24, 32, 3), 90, np.uint8)
+    assert station.add_tile(1, 2, image, (-15.0, 4.5), 10.0) == "tiles/r1c2.png"
+    assert station.add_chip(3, image, (2.0, -1.0), 11.0) == "chips/chip3.png"
+    m = json.loads((station.folder / "manifest.json").read_text())
+    assert m["tiles"] == [
+        {"file": "tiles/r1c2.png", "row": 1, "col": 2, "pan": -15.0, "tilt": 4.5, "t": 10.0}
+    ]
+    assert m["chips"] == [
+        {"file": "chips/chip3.png", "rank": 3, "pan": 2.0, "tilt": -1.0, "t": 11.0}
+    ]
+    for rel in ("tiles/r1c2.png", "chips/chip3.png"):
+        assert m["files"][rel] == (station.folder / rel).stat().st_size > 0
 
 
 def test_archive_recovers_interrupted_stations(tmp_path: Path) -> None:
