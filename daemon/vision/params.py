@@ -261,7 +261,7 @@ DEFAULT = UNCOMMON.replace(
 uses unless told otherwise. ``bench/real.py`` (347 real labelled images of five kinds), top-1 /
 any of 3 / repeat@1: 55.3 / 77.5 / 96.3 %, against 37.2 / 63.7 / 71.5 for ``uncommon`` and
 37.2 / 57.1 for the best baselines. ``bench/quality.py``: every goal met on tiny spots (top-1
-90.8 %) and on the seed's cliff (99.2 %); the best top-1 on large targets (70.0 %); veins 74.2 %
+91.7 %) and on the seed's cliff (98.3 %); the best top-1 on large targets (81.7 %); veins 79.2 %
 (spectral residual 90.8). About twice the time of ``uncommon``, still milliseconds at the
 working size."""
 
