@@ -46,12 +46,13 @@ from .site import Orientation
 from .vision.params import PROFILES
 from .worker import VisionWorker, WorkerError
 
-__all__ = ["Survey", "SurveyBusyError", "SurveyTelemetry"]
+__all__ = ["ANALYSE", "Survey", "SurveyBusyError", "SurveyState", "SurveyTelemetry"]
 
 _LOGGER = logging.getLogger(__name__)
 
 ANALYSE = "daemon.products:analyse_into"
 """The worker's job, by name: the service process never imports the science core."""
+
 CHIPS = 3
 
 
