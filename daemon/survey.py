@@ -348,9 +348,11 @@ class Survey:
         try:
             mosaic = await self._acquire(station, geometry, timing)
             await self._register(station, geometry, mosaic)
-            self._progress("analysis", 0, 1)
             ta = time.perf_counter()
             prior = await asyncio.to_thread(self._prior, station, geometry)
+            # No await between announcing the analysis and handing it to the worker: a worker
+            # that dies after the announcement dies with this station's job in it.
+            self._progress("analysis", 0, 1)
             doc = await self.worker.call(
                 ANALYSE, str(station.partial_dir), mosaic, profile, "mosaic.png", prior
             )
