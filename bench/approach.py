@@ -56,8 +56,10 @@ CONDITIONS: dict[str, tuple[str, float]] = {
     "uncommon, no memory": ("uncommon", 0.0),
     "paper (seed), no memory": ("paper", 0.0),
 }
-WIDTH, HEIGHT, HFOV = 480, 384, 30.0
-"""The simulated camera (a PAL-like 5:4 frame, reduced to keep the run short)."""
+WIDTH, HEIGHT, HFOV = 720, 576, 30.0
+"""The simulated camera as the rig runs it (its PAL frame). At 480 x 384 the run took half
+the time, and the stain, 18 px across in the 300 m mosaic, became 12 and was put first 4
+points less often (66 vs 70 % of 100 worlds)."""
 
 
 def _quiet() -> SurveyTelemetry:

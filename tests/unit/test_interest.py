@@ -212,3 +212,26 @@ def test_a_ring_is_aimed_at_its_centre() -> None:
     (point,) = find_points(InterestMap(ring.astype(np.float32), 1, ring.shape), params)[:1]
     assert abs(point.x - 80) < 1.5 and abs(point.y - 60) < 1.5
     assert 20 < point.radius < 30
+
+
+def test_a_rim_bright_on_one_side_is_aimed_at_its_centre() -> None:
+    """A stain seen from 60 m whose rim is far more interesting on one side: above half the
+    peak's height only that side's arc is left, and the ring closes lower down. The point
+    is still the stain's centre (the next station is aimed there), not the bright arc."""
+    yy, xx = np.mgrid[:120, :160].astype(np.float32)
+    r = np.hypot(yy - 60, xx - 80)
+    ring = np.exp(-((r - 20) ** 2) / 18.0) * (1.0 + 1.6 * np.clip((yy - 50) / 30, 0, 1))
+    params = DEFAULT.replace(isotropy=0.0)
+    (point,) = find_points(InterestMap(ring.astype(np.float32), 1, ring.shape), params)[:1]
+    assert abs(point.x - 80) < 2 and abs(point.y - 60) < 2
+
+
+def test_a_patch_lit_on_one_side_is_aimed_at_its_mass() -> None:
+    """A filled patch (a stain interesting all over) whose top leans to one side, as where
+    a bed contact crosses it: the point settles on the patch's centre, not on its top."""
+    yy, xx = np.mgrid[:120, :160].astype(np.float32)
+    blob = np.exp(-(np.hypot(yy - 60, xx - 80) ** 2) / (2 * 14.0**2))
+    blob *= 1.0 + 0.5 * np.exp(-((xx - 92) ** 2 + (yy - 60) ** 2) / 40.0)
+    params = DEFAULT.replace(isotropy=0.0)
+    (point,) = find_points(InterestMap(blob.astype(np.float32), 1, blob.shape), params)[:1]
+    assert abs(point.x - 80) < 3.5 and abs(point.y - 60) < 2  # the top's centre: 88

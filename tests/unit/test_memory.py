@@ -3,6 +3,8 @@ the coarse station's interest and the chosen target weigh the close station's po
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -61,6 +63,26 @@ def test_memory_favours_the_chosen_targets_surroundings() -> None:
     left = geo.to_angles(90, 72)
     prior = station_prior(nothing, geo, geo, target=left, radius_deg=1.0, walk=1.0, weight=0.8)
     assert analyze(_two_spots(6, 8), DEFAULT, prior).points[0].x < 180
+
+
+def test_the_favoured_neighbourhood_is_the_target_itself() -> None:
+    """Known answer: with nothing judged interesting from afar, the weight is 1 on the
+    chosen target and falls as a Gaussian of the target's own radius, to 1 - weight on the
+    beds around it (two radii off: 0.5 + 0.5 e^-2)."""
+    geo = MosaicGeometry(CameraModel(720, 576, 30.0), 1, 2, downsample=4)
+    left = geo.to_angles(90, 72)
+    prior = station_prior(
+        np.zeros((144, 360), np.uint8), geo, geo, target=left, radius_deg=2.0, walk=1.0, weight=0.5
+    )
+    scale = prior.shape[1] / 360
+
+    def at(pan: float, tilt: float) -> float:
+        x, y = geo.to_mosaic(pan, tilt)
+        return float(prior[int(y * scale), int(x * scale)])
+
+    assert at(*left) == pytest.approx(1.0, abs=0.02)
+    assert at(left[0] + 4.0, left[1]) == pytest.approx(0.5 + 0.5 * math.exp(-2.0), abs=0.02)
+    assert at(left[0] + 8.0, left[1]) == pytest.approx(0.5, abs=0.01)
 
 
 def test_a_prior_must_be_a_finite_map() -> None:

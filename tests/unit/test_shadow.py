@@ -81,6 +81,31 @@ def test_a_crack_is_not_a_shadow_and_a_shadows_edge_is() -> None:
     assert shade[[79, 88], 30:170].mean() > 0.6  # the edge rows, half lit at the fine scale
 
 
+def test_a_thin_sky_lit_shadow_stays_shade() -> None:
+    """The opening is for untinted lines: a ledge shadow seen from far off is as thin as a
+    crack, and if it turns blue it is still the sky's shade (the procedural world's 300 m
+    mosaics lost their stain to 2-4 px ledge shadows the opening had taken out of the gate)."""
+    img = rock(RED_ROCK)
+    img[30:32, 20:180] *= 0.45  # a 2 px crack: untinted
+    img[80:82, 20:180] *= SKY_SHADE  # a 2 px ledge shadow: lit by the sky alone
+    shade = shadow_likelihood(u8(img), DEFAULT)
+    assert shade[30:32, 30:170].max() < 0.3
+    assert shade[80:82, 30:170].min() > 0.6
+
+
+def test_a_wide_ledge_shadow_is_shade_and_a_round_hollow_is_not() -> None:
+    """Shade thicker than the surround (a ledge's shadow seen from 60 m) is found at the
+    second scale where it runs along its ledge; a round hollow in the same shade, the
+    shadowed core of a stain seen close up, is left to the interest."""
+    img = rock(RED_ROCK, shape=(240, 400))
+    img[40:80, 20:380] *= SKY_SHADE  # a ledge shadow 40 px thick
+    yy, xx = np.mgrid[:240, :400]
+    img[(yy - 170) ** 2 + (xx - 200) ** 2 <= 22**2] *= SKY_SHADE  # a hollow 44 px across
+    shade = shadow_likelihood(u8(img), DEFAULT)
+    assert shade[50:70, 60:340].mean() > 0.8
+    assert shade[165:175, 195:205].mean() < 0.1  # its middle: the fine scale takes its rim
+
+
 def test_the_default_profile_finds_a_dark_crack_on_red_rock() -> None:
     img = rock(RED_ROCK, seed=3)
     img[40:54, 40:68] *= SKY_SHADE  # a short ledge shadow, a decoy
@@ -136,3 +161,13 @@ def test_a_point_in_shade_says_so() -> None:
 def test_bad_shadow_parameters_are_refused(bad: dict) -> None:
     with pytest.raises(ValueError, match="shadow"):
         VisionParams(**bad)
+
+
+def test_a_shadow_of_a_few_pixels_is_scored() -> None:
+    """A few dark candidate pixels only: OpenCV must not read them as a scalar (a crash
+    once the second scale's copy of a small image had that few)."""
+    for width, seed in ((w, k) for w in range(1, 7) for k in range(3)):  # 0 to a few
+        img = rock(RED_ROCK, shape=(30, 40), seed=seed)
+        img[15, 20 : 20 + width] *= SKY_SHADE
+        shade = shadow_likelihood(u8(img), DEFAULT)
+        assert shade.shape == (30, 40) and np.isfinite(shade).all()
