@@ -49,9 +49,10 @@ from 78.3 / 91.7 to 80.0 / 95.0 % (tiny any-of-3 99.2 -> 97.5 %), and put the pl
 first in the procedural world's 300 m mosaics 66 % of the time, from 63.5 (200 worlds). The
 wide scale then took decoy@1 with no target to 2.5 %, top-1 on veins and large targets to 82.5 %,
 and put the stain first in 17 of the 18 60 m approach mosaics that hold it, from 15; without
-the elongation test it also gated the stain's core out of 4 of the 12 10 m mosaics. The side comparisons are made only where a pixel is darker than its
-surroundings' mean, and the surround blurs on a grid of 2 x 2 means: 10.5 ms at the 0.13 MP
-working size, 2.4 of them the wide scale (8.8 before it, 9.2 before the side comparisons).
+the elongation test it also gated the stain's core out of 4 of the 12 10 m mosaics. The side
+comparisons are made only where a pixel is darker than its surroundings' mean, and the
+surround blurs on a grid of 2 x 2 means: 10.5 ms at the 0.13 MP working size, 2.4 of them the
+wide scale (8.8 before it, 9.2 before the side comparisons).
 """
 
 from __future__ import annotations
