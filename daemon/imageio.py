@@ -15,6 +15,7 @@ __all__ = [
     "MAX_PIXELS",
     "ImageError",
     "as_bgr8",
+    "encode_image",
     "read_image",
     "write_atomic",
     "write_jpeg",
@@ -94,21 +95,35 @@ def write_atomic(path: Path, data: bytes) -> None:
         raise
 
 
+def encode_image(image: np.ndarray, ext: str = ".jpg", quality: int = 90) -> bytes:
+    """The ``.jpg`` (at ``quality``) or ``.png`` bytes of an image; b"" if OpenCV cannot
+    encode it (each caller says what a missing image means: a chip without a preview, a
+    live frame skipped, a file not written).
+
+    >>> black = np.zeros((8, 8, 3), np.uint8)
+    >>> encode_image(black)[:2], encode_image(black, ".png")[1:4]
+    (b'\\xff\\xd8', b'PNG')
+    """
+    flags = [cv2.IMWRITE_JPEG_QUALITY, quality] if ext == ".jpg" else []
+    ok, buf = cv2.imencode(ext, image, flags)
+    return buf.tobytes() if ok else b""
+
+
 def write_png(path: Path, image: np.ndarray) -> None:
     """Encode and write a PNG atomically."""
-    _write_encoded(path, image, ".png", [])
+    _write_encoded(path, image, ".png")
 
 
 def write_jpeg(path: Path, image: np.ndarray, quality: int = 90) -> None:
     """Encode and write a JPEG atomically (photographs of many megapixels)."""
-    _write_encoded(path, image, ".jpg", [cv2.IMWRITE_JPEG_QUALITY, quality])
+    _write_encoded(path, image, ".jpg", quality)
 
 
-def _write_encoded(path: Path, image: np.ndarray, ext: str, flags: list[int]) -> None:
-    ok, buf = cv2.imencode(ext, image, flags)
-    if not ok:
+def _write_encoded(path: Path, image: np.ndarray, ext: str, quality: int = 90) -> None:
+    data = encode_image(image, ext, quality)
+    if not data:
         raise OSError(f"{path}: {ext[1:].upper()} encoding failed")
-    write_atomic(path, buf.tobytes())
+    write_atomic(path, data)
 
 
 def as_bgr8(image: np.ndarray) -> np.ndarray:

@@ -18,6 +18,8 @@ import numpy as np
 from protocol.keys import Keys
 from protocol.messages import FrameStream, StreamRequest
 
+from .imageio import encode_image
+
 __all__ = ["IDLE_S", "LiveViews", "View"]
 
 IDLE_S = 30.0
@@ -43,8 +45,8 @@ class View:
         if self.width is not None and cols > self.width:
             size = (self.width, max(1, round(rows * self.width / cols)))
             image = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
-        ok, jpeg = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, self.quality])
-        return (jpeg.tobytes(), image.shape[1], image.shape[0]) if ok else None
+        jpeg = encode_image(image, quality=self.quality)
+        return (jpeg, image.shape[1], image.shape[0]) if jpeg else None
 
 
 class LiveViews:

@@ -24,7 +24,7 @@ import cv2
 import numpy as np
 
 from .archive import MANIFEST
-from .imageio import write_atomic
+from .imageio import encode_image, write_atomic
 
 __all__ = ["FILENAME", "render_report", "write_report"]
 
@@ -238,10 +238,9 @@ def _data(image: np.ndarray, ext: str) -> str:
         image = cv2.resize(
             image, (round(cols * scale), round(rows * scale)), interpolation=cv2.INTER_AREA
         )
-    params = [cv2.IMWRITE_JPEG_QUALITY, 85] if ext == ".jpg" else []
-    ok, buf = cv2.imencode(ext, image, params)
+    data = encode_image(image, ext, quality=85)
     mime = "image/jpeg" if ext == ".jpg" else "image/png"
-    return f"data:{mime};base64,{base64.b64encode(buf.tobytes()).decode()}" if ok else ""
+    return f"data:{mime};base64,{base64.b64encode(data).decode()}" if data else ""
 
 
 def _where(site: dict[str, Any]) -> str:

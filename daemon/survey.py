@@ -36,6 +36,7 @@ from protocol.messages import (
 from .archive import MANIFEST, Archive, ArchiveError, Station
 from .camera import CameraError, Frame
 from .config import SurveyConfig
+from .imageio import encode_image
 from .memory import SessionMemory, phrase, station_prior
 from .ptu import PtuError, PtuLimitError, PtuPosition
 from .ptu.geometry import CameraModel, MosaicGeometry
@@ -586,8 +587,7 @@ class Survey:
         self, station: Station, point: InterestPoint, pose: tuple[float, float], frame: Frame
     ) -> Chip:
         rel = station.add_chip(point.rank, frame.image, pose, frame.timestamp)
-        ok, jpeg = cv2.imencode(".jpg", frame.image, [cv2.IMWRITE_JPEG_QUALITY, 85])
-        return Chip(self.station_id, point.rank, *pose, rel, jpeg.tobytes() if ok else b"")
+        return Chip(self.station_id, point.rank, *pose, rel, encode_image(frame.image, quality=85))
 
 
 def _describe(exc: BaseException) -> str:
