@@ -1,11 +1,12 @@
 """Uncommon maps: each pixel scored by how rare its class is in its plane.
 
 The seed: classes ranked by area, the ranking reversed linearly, so the largest class scores
-1 and the smallest K (<= 8). Unsegmented pixels score 0 (they are drawn black and must not
+1 and the smallest 8 (K <= 8 classes). Unsegmented pixels score 0 (they are drawn black and must not
 attract interest). Variants, all monotone in class area so still "uncommon maps":
 
-* ``rank``: r in 1..K (the seed).
-* ``spread``: 1 + 7 (r - 1) / (K - 1), so the rarest class always scores 8.
+* ``spread``: 1 + 7 (r - 1) / (K - 1): the largest class scores 1 and the rarest 8, as the
+  seed states it, whatever the number of classes (the ``paper`` profile).
+* ``rank``: r in 1..K, which meets the seed's statement only when K = 8.
 * ``surprisal``: 1 + 7 log(A_1 / A_k) / log(span), clipped to 1..8, so a tiny class scores
   far above a mid-sized one instead of one rank step above it.
 
@@ -36,6 +37,8 @@ def uncommon_values(seg: Segmentation, params: VisionParams) -> np.ndarray:
     >>> cls = tuple(PlaneClass(c, 3, 1.0, a) for c, a in [(10, 900), (90, 90), (200, 9)])
     >>> seg = Segmentation(np.zeros((1, 1), np.uint8), cls, np.zeros((256, 256), np.float32))
     >>> uncommon_values(seg, PAPER)[:4].tolist()
+    [0.0, 1.0, 4.5, 8.0]
+    >>> uncommon_values(seg, PAPER.replace(uncommon="rank"))[:4].tolist()
     [0.0, 1.0, 2.0, 3.0]
     >>> uncommon_values(seg, PAPER.replace(uncommon="surprisal"))[:4].round(2).tolist()
     [0.0, 1.0, 3.33, 5.67]
@@ -98,7 +101,7 @@ def uncommon_map(seg: Segmentation, params: VisionParams) -> np.ndarray:
     >>> plane[:, 30:] = 200
     >>> umap = uncommon_map(segment_plane(plane, PAPER), PAPER)
     >>> umap[0, [0, 39]].tolist()
-    [1.0, 2.0]
+    [1.0, 8.0]
     """
     table = uncommon_values(seg, params).astype(np.float32)
     umap = cv2.LUT(seg.labels, table)
