@@ -50,6 +50,10 @@ class InterestMap:
     blurred: np.ndarray | None = None
     """The plain blurred sum when ``grid`` is reshaped by ``isotropy``: targets are its
     patches (a ring of roundness must not split one target into two)."""
+    plain: np.ndarray | None = None
+    """The blurred interest before any roundness: which peaks are one target is judged on
+    it. Roundness is a score, not an extent; on a wide flat patch it is noise, and its
+    ripples split one lichen or one lens into several peaks."""
 
     def full(self) -> np.ndarray:
         """The map at the analysed image's resolution, (M, N) float32."""
@@ -159,13 +163,17 @@ def interest_map(
         rare = _blur(
             _reduce(texture, f) - np.median(texture[::step, ::step]), sigma * params.texture_blur, f
         )
-        blurred = fuse(grid, rare, params.texture_weight)
-        grid = blurred
+        fused = fuse(grid, rare, params.texture_weight)
+        plain = fuse(blurred, rare, params.texture_weight) if grid is not blurred else fused
+        blurred = fused
+        grid = fused
         if params.fused_isotropy > 0:
-            grid = blurred * _roundness(blurred, sigma / f, params.fused_isotropy)
+            grid = fused * _roundness(fused, sigma / f, params.fused_isotropy)
+    else:
+        plain = blurred
     if prior is not None:
         grid = grid * _reduce(prior.astype(np.float32, copy=False), f)
-    return InterestMap(grid, f, (rows, cols), None if grid is blurred else blurred)
+    return InterestMap(grid, f, (rows, cols), None if grid is blurred else blurred, plain)
 
 
 def fuse(uncommon: np.ndarray, texture: np.ndarray, weight: float) -> np.ndarray:
@@ -254,12 +262,13 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     the map's minimum and above 0 (the image's typical level): a flat map (no contrast)
     yields no points, and nothing commoner than typical is one. A peak's patch is the
     connected part of the map above ``valley`` x its height over the map's median that
-    holds it; a peak whose patch holds a chosen point is that point's target again. A
+    holds it, on the map before any roundness (``plain``); a peak whose patch holds a chosen
+    point, or which settles within a chosen point's radius, is that point's target again. A
     point's radius is that of a disc of the area above half its height (``_EXTENT``), and its
     position the centre of a ring (``_ring``, looked for down to ``_RING_LEVELS``), else the
     centre of mass of the patch's top (``_TOP``) settled by a mean shift at the point's own
     radius (``_settle``); without ``valley`` they are the separation and the refined peak.
-    Patches are taken on the plain blurred map when ``grid`` was reshaped by ``isotropy``.
+    Extents and positions are taken on ``blurred`` when ``grid`` was reshaped by roundness.
 
     Examples
     --------
@@ -298,6 +307,8 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     chosen: list[tuple[int, int, float, float, float, float]] = []  # peak r, c; y, x; ...
     support = grid if imap.blurred is None else imap.blurred
     base = float(np.median(support))  # heights count from the map's typical level
+    whole = support if imap.plain is None else imap.plain
+    whole_base = float(np.median(whole))
     for subset in (np.flatnonzero(first), np.flatnonzero(~first)):
         order = subset[np.lexsort((cols[subset], rows[subset], -values[subset]))]
         for i in order:
@@ -306,13 +317,11 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
                 continue
             (y, x), radius = _refine(grid, r, c), sep
             if params.valley > 0:
-                level = base + params.valley * (float(support[r, c]) - base)
-                patch = _patch(support, r, c, level)
-                if any(patch[q[0], q[1]] for q in chosen):
+                level = whole_base + params.valley * (float(whole[r, c]) - whole_base)
+                if any(_patch(whole, r, c, level)[q[0], q[1]] for q in chosen):
                     continue
                 height = float(support[r, c]) - base
-                if params.valley != _EXTENT:
-                    patch = _patch(support, r, c, base + _EXTENT * height)
+                patch = _patch(support, r, c, base + _EXTENT * height)
                 ring = _ring_below(support, r, c, patch, base=base, height=height)
                 if ring is not None:  # aim at the ring's centre; it spans what it encloses
                     y, x, area = ring
@@ -322,6 +331,8 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
                     y, x = _centre(support, _patch(support, r, c, top), top, (y, x))
                     radius = max(1.0, math.sqrt(float(patch.sum()) / math.pi))
                     y, x = _settle(support, base, y, x, radius)
+                if any(math.hypot(y - q[2], x - q[3]) < max(radius, q[5]) for q in chosen):
+                    continue
             chosen.append((r, c, y, x, value, radius))
             if len(chosen) == params.top_n:
                 break

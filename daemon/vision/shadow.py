@@ -82,9 +82,10 @@ _SPLIT = np.array([[-1.0 / (3.0 * _DARK)] * 3, [1.0, 0.0, -1.0], [0.0, 1.0, -1.0
 """A log colour shift to darkness (1 at ``_DARK``), log(B / R) and log(G / R) shifts."""
 _TINT = 0.15
 """Shift towards blue along the illuminant line at which the tint evidence is full."""
-_UNTINTED = 0.04
-"""On coloured rock, a shift along the line from none up counts fully, and fades to nothing
-this far on the warm side (a wet stain deepens its rock's colour, away from blue)."""
+_UNTINTED = (0.03, 0.06)
+"""On coloured rock, a shift along the line from this far on the warm side (sensor noise
+about a pure darkening) up counts fully, and fades to nothing this far: a wet stain deepens
+its rock's colour, away from blue (0.06 on grey shale, 0.1-0.6 on coloured beds)."""
 _CONE = (0.04, 0.3)
 """Purity: a shift counts as an illuminant change while its distance from the line is below
 0.04 + 0.3 x its length along it, falling linearly to 0 there."""
@@ -152,10 +153,10 @@ def _likelihood(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
     both = _coarse(cv2.merge([*cv2.split(cv2.multiply(logs, cv2.merge([lit] * 3))), lit]), sigma)
     weight = cv2.merge([both[..., 3] + np.float32(1e-3)] * 3)
     host = cv2.resize(cv2.divide(both[..., :3], weight), size)
-    # The shift from the lit rock is linear in log colour: darkness, and the chromaticity
-    # shift along and across the illuminant line (exactly 0 in a grey image).
+    # The shift from the lit rock: darkness, and the chromaticity shift along and across the
+    # illuminant line (exactly 0 in a grey image) from the host darkened to the pixel.
     mine = _project(own, params.shadow_tint)
-    ref = _project(host, params.shadow_tint)
+    ref = _reference(host, own, params.shadow_tint)
     blue, green, red = cv2.split(host)
     chroma = cv2.max(cv2.max(blue, green), red) - cv2.min(cv2.min(blue, green), red)
     coloured = np.clip(chroma * np.float32(1.0 / _HOST_CHROMA) - 1.0, 0.0, 1.0)
@@ -168,13 +169,15 @@ def _likelihood(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
         # OpenCV reads an array of <= 4 values as a scalar: a few candidates are repeated.
         dark = np.resize(dark, max(dark.size, 8))
         at = [m.reshape(-1)[dark] for m in mine]
+        own_at = own.reshape(-1, 3)[dark][:, None]
         row, col = np.divmod(dark, cols)
         best = [tinted.reshape(-1)[dark], untinted.reshape(-1)[dark]]
         d = max(1, round(_SIDE * sigma))
         for dy, dx in ((0, d), (0, -d), (d, 0), (-d, 0)):
             side = np.clip(row - dy, 0, rows - 1) * cols + np.clip(col - dx, 0, cols - 1)
-            host_at = [m.reshape(-1).take(side) for m in (*ref, coloured)]
-            scores = _score(at, host_at[:3], host_at[3])
+            host_at = host.reshape(-1, 3)[side][:, None]
+            side_ref = [m.reshape(-1) for m in _reference(host_at, own_at, params.shadow_tint)]
+            scores = _score(at, side_ref, coloured.reshape(-1).take(side))
             best = [np.maximum(b, s.reshape(-1)) for b, s in zip(best, scores, strict=True)]
         tinted.reshape(-1)[dark], untinted.reshape(-1)[dark] = best
     untinted = cv2.morphologyEx(untinted, cv2.MORPH_OPEN, _disc(_THIN))
@@ -225,6 +228,23 @@ def _project(logs: np.ndarray, tint: tuple[float, float]) -> list[np.ndarray]:
     return [darkness, cv2.addWeighted(db, u0, dg, u1, 0.0), cv2.addWeighted(dg, u0, db, -u1, 0.0)]
 
 
+def _reference(host: np.ndarray, own: np.ndarray, tint: tuple[float, float]) -> list[np.ndarray]:
+    """The host's (darkness, along, across), its chromaticity taken as it would be darkened
+    to the pixel's own brightness by a change of light alone.
+
+    Log colour is taken of the value + ``_OFFSET``, and the offset weighs more the darker a
+    pixel: darkened uniformly, a warm rock's log colour greys, which reads as a shift towards
+    blue (0.07 at half brightness). Compared with the host darkened the same way, a pure
+    darkening shifts by nothing, sky shade towards blue, and a wet stain, whose colour
+    deepens, away from it."""
+    lin_host = cv2.exp(host) - np.float32(_OFFSET)
+    lin_own = cv2.exp(own) - np.float32(_OFFSET)
+    ratio = cv2.transform(lin_own, _MEAN) / (cv2.transform(lin_host, _MEAN) + np.float32(1e-3))
+    darker = np.clip(ratio, 0.0, 1.0)
+    darkened = cv2.log(lin_host * darker[..., None] + np.float32(_OFFSET))
+    return [_project(host, tint)[0], *_project(darkened, tint)[1:]]
+
+
 def _score(
     mine: list[np.ndarray], host: list[np.ndarray], coloured: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -236,5 +256,12 @@ def _score(
     purity = 1.0 - cv2.divide(cv2.absdiff(across, 0.0), cone)
     dark = cv2.multiply(np.clip(darkness, 0.0, 1.0), np.clip(purity, 0.0, 1.0))
     tinted = np.clip(along * np.float32(1.0 / _TINT), 0.0, 1.0)
-    untinted = cv2.multiply(np.clip(along * np.float32(1.0 / _UNTINTED) + 1.0, 0.0, 1.0), coloured)
+    untinted = cv2.multiply(
+        np.clip(
+            (along + np.float32(_UNTINTED[1])) * np.float32(1.0 / (_UNTINTED[1] - _UNTINTED[0])),
+            0.0,
+            1.0,
+        ),
+        coloured,
+    )
     return cv2.multiply(dark, tinted), cv2.multiply(dark, untinted)
