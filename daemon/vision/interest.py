@@ -48,8 +48,8 @@ class InterestMap:
     shape: tuple[int, int]
     """(M, N) of the analysed image."""
     blurred: np.ndarray | None = None
-    """The plain blurred sum when ``grid`` is reshaped by ``isotropy``: targets are its
-    patches (a ring of roundness must not split one target into two)."""
+    """The map before the last roundness, when ``grid`` is reshaped by it: points are
+    located on it (a ring of roundness must not split one target into two)."""
     plain: np.ndarray | None = None
     """The blurred interest before any roundness: which peaks are one target is judged on
     it. Roundness is a score, not an extent; on a wide flat patch it is noise, and its
@@ -156,7 +156,7 @@ def interest_map(
     sigma = params.sigma((rows, cols))
     f = _factor(sigma, (rows, cols), params.exact_blur)
     blurred = _blur(_reduce(total, f) - typical, sigma, f)
-    grid = blurred
+    grid = plain = blurred
     if params.isotropy > 0:
         grid = blurred * _roundness(blurred, sigma / f, params.isotropy)
     if texture is not None and params.texture_weight > 0:
@@ -164,16 +164,19 @@ def interest_map(
             _reduce(texture, f) - np.median(texture[::step, ::step]), sigma * params.texture_blur, f
         )
         fused = fuse(grid, rare, params.texture_weight)
-        plain = fuse(blurred, rare, params.texture_weight) if grid is not blurred else fused
-        blurred = fused
-        grid = fused
+        plain = fused if plain is grid else fuse(plain, rare, params.texture_weight)
+        blurred = grid = fused
         if params.fused_isotropy > 0:
             grid = fused * _roundness(fused, sigma / f, params.fused_isotropy)
-    else:
-        plain = blurred
     if prior is not None:
         grid = grid * _reduce(prior.astype(np.float32, copy=False), f)
-    return InterestMap(grid, f, (rows, cols), None if grid is blurred else blurred, plain)
+    return InterestMap(
+        grid,
+        f,
+        (rows, cols),
+        None if grid is blurred else blurred,
+        None if plain is blurred else plain,
+    )
 
 
 def fuse(uncommon: np.ndarray, texture: np.ndarray, weight: float) -> np.ndarray:
@@ -234,11 +237,23 @@ def _curvatures(smooth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _roundness(blurred: np.ndarray, sigma: float, share: float) -> np.ndarray:
     """1 - share + share x iso, iso = lambda_max / lambda_min where the map at twice the
     blur curves down in every direction (a cap): 1 on a round patch, 0 along a ridge or on a
-    slope, whatever the height."""
+    slope, whatever the height. Curvature under ``_FLAT`` of the map's strongest counts as
+    flat, so a wide flat top is round instead of noise."""
     wider = cv2.GaussianBlur(blurred, (0, 0), math.sqrt(3.0) * sigma)
     lmax, lmin = _curvatures(wider)
-    iso = np.where(lmin < 0, np.clip(lmax / np.minimum(lmin, -1e-12), 0.0, 1.0), 0.0)
+    eps = np.float32(_FLAT * max(float(-lmin.min()), 0.0))
+    iso = np.where(
+        lmin < eps, np.clip((lmax - eps) / np.minimum(lmin - eps, -1e-12), 0.0, 1.0), 0.0
+    )
     return (1.0 - share + share * iso).astype(np.float32)
+
+
+_FLAT = 0.1
+"""Curvature, as a share of the map's strongest, under which a top counts as flat. On a wide
+flat patch (a lens, a lichen) the curvatures' ratio is noise, and its ripples split the patch
+into peaks that moved the best point along it from one look to the next: repeat@1 on large
+targets 85.8 -> 92.5 % (86.7 -> 95.0 on held-out scenes), for tiny top-1 -0.8 (-1.7) and
+pooled real top-1 -0.9 (``bench.quality``, ``bench.real``)."""
 
 
 def _refine(grid: np.ndarray, r: int, c: int) -> tuple[float, float]:

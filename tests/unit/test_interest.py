@@ -1,3 +1,5 @@
+import math
+
 import cv2
 import numpy as np
 import pytest
@@ -5,7 +7,13 @@ import pytest
 from daemon.imageio import as_bgr8
 from daemon.vision.cooccurrence import PlaneClass, Segmentation
 from daemon.vision.explain import describe
-from daemon.vision.interest import InterestMap, find_points, interest_map, summed_uncommon
+from daemon.vision.interest import (
+    InterestMap,
+    _roundness,
+    find_points,
+    interest_map,
+    summed_uncommon,
+)
 from daemon.vision.params import DEFAULT, PAPER
 from daemon.vision.pipeline import analyze
 from daemon.vision.uncommon import uncommon_map
@@ -235,3 +243,30 @@ def test_a_patch_lit_on_one_side_is_aimed_at_its_mass() -> None:
     params = DEFAULT.replace(isotropy=0.0)
     (point,) = find_points(InterestMap(blob.astype(np.float32), 1, blob.shape), params)[:1]
     assert abs(point.x - 80) < 3.5 and abs(point.y - 60) < 2  # the top's centre: 88
+
+
+def test_a_patch_split_by_roundness_is_one_target() -> None:
+    """A roundness ripple cuts a notch down one wide patch: two peaks on ``grid``, one patch
+    on the map before roundness, so one point, not two on the same lichen."""
+    yy, xx = np.mgrid[:120, :160].astype(np.float32)
+    plain = np.exp(-((yy - 60) ** 2 + (xx - 80) ** 2) / (2 * 15.0**2)).astype(np.float32)
+    grid = plain * (1.0 - 0.8 * np.exp(-((xx - 80) ** 2) / 18.0)).astype(np.float32)
+    imap = InterestMap(grid, 1, grid.shape, plain=plain)
+    points = find_points(imap, DEFAULT)
+    assert sum(math.hypot(p.x - 80, p.y - 60) < 25 for p in points) == 1
+    split = find_points(InterestMap(grid, 1, grid.shape), DEFAULT)  # judged on grid: two
+    assert sum(math.hypot(p.x - 80, p.y - 60) < 25 for p in split) == 2
+
+
+def test_a_flat_top_is_round_and_a_ridge_is_not() -> None:
+    """On a wide flat patch the curvatures' ratio is noise; a flat top counts as round, so
+    its ripples do not split it into peaks. A ridge (a ledge shadow's trace) stays unround."""
+    rng = np.random.default_rng(0)
+    yy, xx = np.mgrid[:160, :240].astype(np.float32)
+    top = np.clip(40.0 - np.hypot(yy - 80, xx - 120), 0, 8) / 8.0  # flat inside r = 32
+    top += rng.normal(0, 0.002, top.shape)
+    iso = _roundness(cv2.GaussianBlur(top.astype(np.float32), (0, 0), 2.0), 2.0, 1.0)
+    assert iso[70:91, 110:131].min() > 0.9
+    ridge = np.exp(-((yy - 80) ** 2) / 50.0) * (np.abs(xx - 120) < 100)
+    iso = _roundness(ridge.astype(np.float32), 2.0, 1.0)
+    assert iso[80, 60:180].max() < 0.2
