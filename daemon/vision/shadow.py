@@ -14,9 +14,11 @@ shadow from a stain. Colour can, because a shadow changes the light, not the roc
 * a material change (a wet stain, whose colour deepens; a plant; a vein) moves it elsewhere.
 
 Each pixel's log colour at a fine scale is compared with the lit rock around it (a
-Gaussian average of the pixels not darker than their surroundings, so a shadow is not
-compared with itself), and with that average taken a little above, below, left and right
-of it (``_SIDE``): a ledge shadow cast across a bed contact is the shade of one bed at its
+Gaussian average of the pixels not darker than their surroundings, then than that average,
+so neither a shadow nor a stain is compared with itself), darkened to the pixel's brightness
+as a change of light alone would (``_reference``: in log(value + offset) a darkening also
+greys a colour), and with that average taken a little above, below, left and right of it
+(``_SIDE``): a ledge shadow cast across a bed contact is the shade of one bed at its
 top and of the other at its bottom, and the mixture of both is neither. The best of the
 five comparisons counts. The likelihood is darkness x purity x tint evidence:
 
@@ -82,7 +84,7 @@ _SPLIT = np.array([[-1.0 / (3.0 * _DARK)] * 3, [1.0, 0.0, -1.0], [0.0, 1.0, -1.0
 """A log colour shift to darkness (1 at ``_DARK``), log(B / R) and log(G / R) shifts."""
 _TINT = 0.15
 """Shift towards blue along the illuminant line at which the tint evidence is full."""
-_UNTINTED = (0.03, 0.06)
+_UNTINTED = (0.015, 0.045)
 """On coloured rock, a shift along the line from this far on the warm side (sensor noise
 about a pure darkening) up counts fully, and fades to nothing this far: a wet stain deepens
 its rock's colour, away from blue (0.06 on grey shale, 0.1-0.6 on coloured beds)."""
@@ -147,12 +149,13 @@ def _likelihood(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
     sigma = params.shadow_surround
     own = cv2.GaussianBlur(logs, (0, 0), _FINE)
     size = bgr.shape[1::-1]
+    brightness = cv2.transform(own, _MEAN)
     around = cv2.resize(_coarse(cv2.transform(logs, _MEAN), sigma), size)
-    lit = (cv2.subtract(cv2.transform(own, _MEAN), around) > -_LIT).astype(np.float32)
-    # The lit pixels' mean log colour: their blurred sum over their blurred weight.
-    both = _coarse(cv2.merge([*cv2.split(cv2.multiply(logs, cv2.merge([lit] * 3))), lit]), sigma)
-    weight = cv2.merge([both[..., 3] + np.float32(1e-3)] * 3)
-    host = cv2.resize(cv2.divide(both[..., :3], weight), size)
+    # Lit rock is what is not much darker than its surroundings' mean, then than the lit
+    # rock's own mean: a stain or a shadow twice the surround wide is most of its own
+    # surroundings, and once left out it no longer dims the rock it is compared with.
+    host = _lit_mean(logs, brightness, around, sigma)
+    host = _lit_mean(logs, brightness, cv2.transform(host, _MEAN), sigma)
     # The shift from the lit rock: darkness, and the chromaticity shift along and across the
     # illuminant line (exactly 0 in a grey image) from the host darkened to the pixel.
     mine = _project(own, params.shadow_tint)
@@ -182,6 +185,17 @@ def _likelihood(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
         tinted.reshape(-1)[dark], untinted.reshape(-1)[dark] = best
     untinted = cv2.morphologyEx(untinted, cv2.MORPH_OPEN, _disc(_THIN))
     return cv2.dilate(cv2.max(tinted, untinted), _disc(_EDGE))
+
+
+def _lit_mean(
+    logs: np.ndarray, brightness: np.ndarray, level: np.ndarray, sigma: float
+) -> np.ndarray:
+    """Mean log colour of the pixels within ``_LIT`` of ``level`` or brighter (their blurred
+    sum over their blurred weight), at every pixel."""
+    lit = (cv2.subtract(brightness, level) > -_LIT).astype(np.float32)
+    both = _coarse(cv2.merge([*cv2.split(cv2.multiply(logs, cv2.merge([lit] * 3))), lit]), sigma)
+    weight = cv2.merge([both[..., 3] + np.float32(1e-3)] * 3)
+    return cv2.resize(cv2.divide(both[..., :3], weight), logs.shape[1::-1])
 
 
 def _elongated(shade: np.ndarray) -> np.ndarray:

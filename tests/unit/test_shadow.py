@@ -8,7 +8,7 @@ import pytest
 from daemon.scene import SKY_SHADE
 from daemon.vision.params import DEFAULT, UNCOMMON, VisionParams
 from daemon.vision.pipeline import analyze
-from daemon.vision.shadow import shadow_likelihood
+from daemon.vision.shadow import _project, _reference, shadow_likelihood
 
 RED_ROCK = (60, 80, 150)
 
@@ -171,3 +171,39 @@ def test_a_shadow_of_a_few_pixels_is_scored() -> None:
         img[15, 20 : 20 + width] *= SKY_SHADE
         shade = shadow_likelihood(u8(img), DEFAULT)
         assert shade.shape == (30, 40) and np.isfinite(shade).all()
+
+
+def test_a_pure_darkening_shifts_no_colour() -> None:
+    """Log colour is taken of the value + 8, so halving a red rock also greys its log
+    colour (0.07 towards blue): the host is darkened the same way before comparing."""
+    red = np.float32([[[60, 80, 150]]])
+    host = np.log(red + 8.0).astype(np.float32)
+    for k in (0.8, 0.5, 0.3):
+        own = np.log(red * k + 8.0).astype(np.float32)
+        mine = _project(own, DEFAULT.shadow_tint)
+        darkness, along, across = (
+            float(np.ravel(a - b)[0])
+            for a, b in zip(mine, _reference(host, own, DEFAULT.shadow_tint), strict=True)
+        )
+        assert abs(along) < 1e-4 and abs(across) < 1e-4, k
+        assert darkness > 0
+    naive = np.ravel(
+        _project(own, DEFAULT.shadow_tint)[1] - _project(host, DEFAULT.shadow_tint)[1]
+    )[0]
+    assert naive > 0.05  # what the plain comparison read as sky shade
+
+
+def test_a_stain_with_its_colour_barely_deepened_is_not_shade() -> None:
+    """A wet stain 20 px across whose colour deepens by only 1.3 on grey-blue rock: its
+    middle is most of its own surroundings, and the rock it is compared with must be the
+    rock around it, not a mixture with the stain (which made it half shade)."""
+    host = (150, 168, 180)
+    img = rock(host)
+    mask = np.zeros(img.shape[:2], bool)
+    mask[50:70, 90:110] = True
+    grey = img[mask].mean(axis=1, keepdims=True)
+    img[mask] = (grey + (img[mask] - grey) * 1.3) * 0.5
+    img[10:18, 20:180] *= 0.45  # overcast shade on the same rock stays shade
+    shade = shadow_likelihood(u8(img), DEFAULT)
+    assert shade[mask].mean() < 0.15
+    assert shade[12:16, 30:170].mean() > 0.8
