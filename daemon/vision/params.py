@@ -264,11 +264,11 @@ DEFAULT = UNCOMMON.replace(
 )
 """``uncommon`` plus texture rarity (``texture``) and the shadow gate (``shadow``): what the rig
 uses unless told otherwise. ``bench/real.py`` (347 real labelled images of five kinds), top-1 /
-any of 3 / repeat@1: 55.3 / 77.5 / 96.3 %, against 37.2 / 63.7 / 71.5 for ``uncommon`` and
-37.2 / 57.1 for the best baselines. ``bench/quality.py``: every goal met on tiny spots (top-1
-91.7 %) and on the seed's cliff (98.3 %); the best top-1 on large targets (81.7 %); veins 79.2 %
-(spectral residual 90.8). About twice the time of ``uncommon``, still milliseconds at the
-working size."""
+any of 3 / repeat@1: 55.6 / 77.5 / 93.7 %, against 36.6 / 64.6 / 76.7 for ``uncommon`` and
+37.2 / 57.1 for the best baselines. ``bench/quality.py``: every goal met on the seed's cliff
+(top-1 98.3 %), repeat@1 and distinct@3 in every regime with a target; top-1 89.2 % on tiny
+spots, 82.5 % on large targets and on veins (spectral residual 90.8). About twice the time of
+``uncommon``, still milliseconds at the working size."""
 
 PROFILES: dict[str, VisionParams] = {
     "paper": PAPER,
