@@ -23,7 +23,11 @@ Conditions: ``default`` and ``uncommon``, each with memory (``survey.memory = 0.
 without, and the seed's method (``paper``, no memory) as the baseline, all in one run on the
 same worlds.
 
-Usage: ``python -m bench.approach [--approaches 30] [--json]``.
+``--first-station N`` scores only the first (300 m) choice, on N worlds, for ``default`` and
+``paper``: the choice that caps the loop, on enough worlds to resolve a few points (memory plays
+no part at a first station; about 2 s a world and profile instead of 30 s a world).
+
+Usage: ``python -m bench.approach [--approaches 30] [--first-station N] [--json]``.
 """
 
 from __future__ import annotations
@@ -71,8 +75,11 @@ def _in_frame(direction: tuple[float, float], pose: tuple[float, float], cam: Ca
     return bool(0 <= x < cam.width and 0 <= y < cam.height)
 
 
-async def approach(seed: int, profile: str, memory: float, work: Path) -> dict:
-    """One 300 -> 60 -> 10 m approach on world ``seed``; its scores."""
+async def approach(
+    seed: int, profile: str, memory: float, work: Path, legs: int | None = None
+) -> dict:
+    """One 300 -> 60 -> 10 m approach on world ``seed`` (its first ``legs`` stations only,
+    when given); its scores."""
     world = World(seed)
     ptu = open_ptu("emu://?time_scale=200")
     url = f"sim://world?seed={seed}&width={WIDTH}&height={HEIGHT}&hfov={HFOV}"
@@ -81,18 +88,19 @@ async def approach(seed: int, profile: str, memory: float, work: Path) -> dict:
     archive.open()
     config = SurveyConfig(simulate_approach=True, memory=memory, profile=profile)
     stations = []
+    legs = len(config.approach) if legs is None else min(legs, len(config.approach))
     async with VisionWorker() as worker:
         await ptu.open()
         survey = Survey(rig, worker, archive, config, hfov=HFOV, telemetry=_quiet())
         try:
-            for leg in range(len(config.approach)):
+            for leg in range(legs):
                 survey.start(SurveyStart(), "bench")
                 await survey._task
                 result, manifest = survey._result, survey.station.manifest
                 if result is None or not result.points:
                     break
                 stations.append((result, manifest, survey.live_camera()))
-                if leg + 1 < len(config.approach):
+                if leg + 1 < legs:
                     await survey.choose(ChooseTarget(result.station, 1), "bench")
         finally:
             await survey.cancel("bench over")
@@ -148,12 +156,43 @@ async def run(n: int, work: Path) -> dict[str, dict]:
     return out
 
 
+FIRST_STATION = ("default", "paper")
+"""Profiles ``--first-station`` scores: the rig's and the seed's."""
+
+
+async def first_station(n: int, work: Path) -> dict[str, float]:
+    """Share of worlds ``1000 .. 1000 + n - 1`` whose first (300 m) #1 lies on the stain, per
+    profile of ``FIRST_STATION``."""
+    out = {}
+    for profile in FIRST_STATION:
+        rows = [await approach(1000 + k, profile, 0.0, work, legs=1) for k in range(n)]
+        out[profile] = sum(bool(r.get("stain_300m")) for r in rows) / max(n, 1)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="bench.approach", description=__doc__.splitlines()[0])
     ap.add_argument("--approaches", type=int, default=30)
+    ap.add_argument(
+        "--first-station",
+        type=int,
+        metavar="N",
+        help="score only the 300 m choice, on N worlds (default and paper)",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
+    if args.first_station is not None:
+        with tempfile.TemporaryDirectory(prefix="bench-approach-") as tmp:
+            shares = asyncio.run(first_station(args.first_station, Path(tmp)))
+        if args.json:
+            print(json.dumps(shares, indent=1))
+            return 0
+        print(f"first station: {args.first_station} seeded worlds (1000+), the 300 m #1 only")
+        for profile, share in shares.items():
+            print(f"{profile:10s} stain @300m {100 * share:5.1f}%")
+        print(f"wall time {time.perf_counter() - t0:.0f} s")
+        return 0
     with tempfile.TemporaryDirectory(prefix="bench-approach-") as tmp:
         results = asyncio.run(run(args.approaches, Path(tmp)))
     if args.json:

@@ -251,3 +251,18 @@ async def test_approach_benchmark_smoke(tmp_path):
     assert len(scores["residual_deg"]) == 2 and all(r < 1.0 for r in scores["residual_deg"])
     summary = approach._summary([scores])
     assert summary["completed"] == 1 and 0.0 <= summary["core_in_chip"] <= 1.0
+
+
+async def test_approach_first_station_smoke(tmp_path):
+    """``--first-station``: one station per world and profile, scored on the 300 m choice
+    only (no walk, no close-range scores)."""
+    scores = await approach.approach(1000, "default", 0.0, tmp_path, legs=1)
+    assert scores["stations"] == 1 and isinstance(scores["stain_300m"], bool)
+    assert "core_in_chip" not in scores and scores["residual_deg"] == []
+
+
+def test_approach_first_station_cli(capsys):
+    assert approach.main(["--first-station", "1", "--json"]) == 0
+    shares = json.loads(capsys.readouterr().out)
+    assert set(shares) == set(approach.FIRST_STATION)
+    assert all(v in (0.0, 1.0) for v in shares.values())
