@@ -19,7 +19,7 @@ Scores per condition:
 * **registration**: median residual (degrees) of stations 2 and 3 registered to the one
   they were aimed from, and the median correlation reached.
 
-Conditions: ``default`` and ``uncommon``, each with memory (``survey.memory = 0.5``) and
+Conditions: ``default`` and ``uncommon``, each with memory (the rig's ``survey.memory``) and
 without, and the seed's method (``paper``, no memory) as the baseline, all in one run on the
 same worlds.
 
@@ -53,10 +53,12 @@ from daemon.worker import VisionWorker
 from daemon.world import World
 from protocol.messages import ChooseTarget, SurveyStart
 
+MEMORY = SurveyConfig().memory
+"""The memory weight the rig runs with (``[survey] memory``)."""
 CONDITIONS: dict[str, tuple[str, float]] = {
-    "default + memory": ("default", 0.5),
+    "default + memory": ("default", MEMORY),
     "default, no memory": ("default", 0.0),
-    "uncommon + memory": ("uncommon", 0.5),
+    "uncommon + memory": ("uncommon", MEMORY),
     "uncommon, no memory": ("uncommon", 0.0),
     "paper (seed), no memory": ("paper", 0.0),
 }

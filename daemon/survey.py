@@ -350,7 +350,7 @@ class Survey:
             mosaic = await self._acquire(station, geometry, timing)
             await self._register(station, geometry, mosaic)
             ta = time.perf_counter()
-            prior = await asyncio.to_thread(self._prior, station, geometry)
+            prior = await asyncio.to_thread(self._prior, station, geometry, mosaic)
             # No await between announcing the analysis and handing it to the worker: a worker
             # that dies after the announcement dies with this station's job in it.
             self._progress("analysis", 0, 1)
@@ -510,7 +510,9 @@ class Survey:
             record = {"note": f"not registered: {exc}"}
         station.update(registration={"from": previous, **record})
 
-    def _prior(self, station: Station, geometry: MosaicGeometry) -> np.ndarray | None:
+    def _prior(
+        self, station: Station, geometry: MosaicGeometry, mosaic: np.ndarray
+    ) -> np.ndarray | None:
         """Memory across stations (``survey.memory``): the weights the station it was aimed
         from puts on this one's interest (daemon.memory.station_prior), noted in the
         manifest; None for a first station, with the option off, or when the earlier
@@ -534,6 +536,8 @@ class Survey:
                 radius_deg=ap.radius_deg,
                 walk=walk,
                 weight=weight,
+                mosaic=mosaic,
+                palettes=self.memory.palettes(),
             )
         except (ArchiveError, cv2.error, ValueError) as exc:
             station.update(memory={"from": previous, "note": f"no prior: {exc}"})

@@ -222,4 +222,4 @@ async def test_a_station_is_registered_to_the_one_it_was_aimed_from(engine) -> N
     assert reg["overlap"] > 0.5 and reg["correlation"] > 0.5, reg
     assert reg["shift_deg"] < 0.5 and reg["scale"] == pytest.approx(1.0, abs=0.05)
     # Memory: the first station's interest weighed this one's (survey.memory, on by default).
-    assert survey.station.manifest["memory"] == {"from": first.station, "weight": 0.5}
+    assert survey.station.manifest["memory"] == {"from": first.station, "weight": survey.cfg.memory}

@@ -41,7 +41,8 @@ def _two_spots(left: int, right: int) -> np.ndarray:
 def test_memory_de_emphasises_what_was_common_from_afar() -> None:
     """Known answer: the right spot is the bigger one, so alone it comes first; but the
     station this one was aimed from judged the left half interesting and the right common,
-    so with memory the left spot comes first."""
+    so with memory the left spot comes first. Away from the chosen target (here the middle of
+    the mosaic), ground judged interesting keeps a quarter of the favour: 1 - 0.8 + 0.8 / 4."""
     geo = MosaicGeometry(CameraModel(720, 576, 30.0), 1, 2, downsample=4)
     earlier = np.zeros((144, 360), np.uint8)
     earlier[:, :180] = 200  # the coarse look's interest: high on the left, nil on the right
@@ -50,7 +51,10 @@ def test_memory_de_emphasises_what_was_common_from_afar() -> None:
     prior = station_prior(
         earlier, geo, geo, target=(0.0, 0.0), radius_deg=0.0, walk=1.0, weight=0.8
     )
-    assert prior.min() == pytest.approx(0.2, abs=0.01) and prior.max() == pytest.approx(1.0)
+    assert prior.min() == pytest.approx(0.2, abs=0.01) and prior.max() <= 1.0
+    scale = prior.shape[1] / 360
+    assert prior[int(72 * scale), int(90 * scale)] == pytest.approx(0.4, abs=0.01)
+    assert prior[int(72 * scale), int(270 * scale)] == pytest.approx(0.2, abs=0.01)
     remembered = analyze(_two_spots(6, 8), DEFAULT, prior)
     assert remembered.points[0].x < 180
     # Patches keep their extent from the unweighted map: the spots are the same size.
@@ -65,14 +69,15 @@ def test_memory_favours_the_chosen_targets_surroundings() -> None:
     assert analyze(_two_spots(6, 8), DEFAULT, prior).points[0].x < 180
 
 
-def test_the_favoured_neighbourhood_is_the_target_itself() -> None:
-    """Known answer: with nothing judged interesting from afar, the weight is 1 on the
-    chosen target and falls as a Gaussian of the target's own radius, to 1 - weight on the
-    beds around it (two radii off: 0.5 + 0.5 e^-2)."""
+def test_the_favoured_neighbourhood_is_where_the_target_was_placed() -> None:
+    """Known answer: with nothing judged interesting from afar, the weight is 1 where the
+    earlier station placed the chosen target and falls as a Gaussian of half its radius
+    (sigma 0.5 x 6 = 3 deg), to 1 - weight around it: one sigma off 0.5 + 0.5 e^-0.5, four
+    off 0.5."""
     geo = MosaicGeometry(CameraModel(720, 576, 30.0), 1, 2, downsample=4)
     left = geo.to_angles(90, 72)
     prior = station_prior(
-        np.zeros((144, 360), np.uint8), geo, geo, target=left, radius_deg=2.0, walk=1.0, weight=0.5
+        np.zeros((144, 360), np.uint8), geo, geo, target=left, radius_deg=6.0, walk=1.0, weight=0.5
     )
     scale = prior.shape[1] / 360
 
@@ -81,10 +86,38 @@ def test_the_favoured_neighbourhood_is_the_target_itself() -> None:
         return float(prior[int(y * scale), int(x * scale)])
 
     assert at(*left) == pytest.approx(1.0, abs=0.02)
-    assert at(left[0] + 4.0, left[1]) == pytest.approx(0.5 + 0.5 * math.exp(-2.0), abs=0.02)
-    assert at(left[0] + 8.0, left[1]) == pytest.approx(0.5, abs=0.01)
+    assert at(left[0] + 3.0, left[1]) == pytest.approx(0.5 + 0.5 * math.exp(-0.5), abs=0.04)
+    assert at(left[0] + 12.0, left[1]) == pytest.approx(0.5, abs=0.01)
 
 
 def test_a_prior_must_be_a_finite_map() -> None:
     with pytest.raises(ValueError, match="finite 2-D map"):
         analyze(_two_spots(6, 8), DEFAULT, np.full((4, 4), np.nan, np.float32))
+
+
+def test_memory_de_emphasises_colours_common_from_afar() -> None:
+    """Known answer: everything was judged interesting from afar and no target is near, so
+    each cell keeps a quarter of the favour times how new its colour is: the dark spot and
+    the buff rock were main colours of the earlier station (1 - 0.8 + 0.8 x 0.25 x ~0), the
+    green plant was not (ΔE > 20: 1 - 0.8 + 0.8 x 0.25)."""
+    geo = MosaicGeometry(CameraModel(720, 576, 30.0), 1, 2, downsample=4)
+    earlier = _two_spots(30, 30)  # buff rock and large dark patches: both main colours
+    memory = SessionMemory()
+    memory.remember("st01-300m", earlier)
+    now = _two_spots(12, 12)
+    now[60:84, 258:282] = (40, 170, 40)  # the right spot is a plant nobody saw from afar
+    prior = station_prior(
+        np.full((144, 360), 200, np.uint8),
+        geo,
+        geo,
+        target=(90.0, 0.0),  # far outside the mosaic
+        radius_deg=1.0,
+        walk=1.0,
+        weight=0.8,
+        mosaic=now,
+        palettes=memory.palettes(),
+    )
+    scale = prior.shape[1] / 360
+    assert prior[int(72 * scale), int(90 * scale)] == pytest.approx(0.2, abs=0.02)  # dark spot
+    assert prior[int(20 * scale), int(180 * scale)] == pytest.approx(0.2, abs=0.02)  # buff rock
+    assert prior[int(72 * scale), int(270 * scale)] == pytest.approx(0.4, abs=0.01)  # the plant
