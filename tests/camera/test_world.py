@@ -81,3 +81,17 @@ async def test_the_simulated_camera_draws_the_world_at_each_zoom() -> None:
     # frame; from afar it is a dot of one or two pixels in the middle of the stain.
     assert radius / (1.0 / 360) > 12
     assert dark(close, 12) > 0.95 and dark(wide, 12) < 0.1
+
+
+def test_grain_is_albedo_not_grey() -> None:
+    """Grain and lamination scale a bed's three channels alike: across a patch of one bed the
+    brightness varies while the chromaticity does not (added grey levels would grey a
+    coloured bed where light and saturate it where dark)."""
+    world = World(1)  # red beds (B / R about 0.4), where greying would show most
+    view = world.render(*_grid(170.0, -40.0, 0.3, FAR), FAR).astype(np.float64)
+    grey = view.mean(axis=2)
+    ratio = view[..., 0] / view[..., 2]
+    one_bed = np.abs(ratio - np.median(ratio)) < 0.05  # a contact may cross the patch
+    assert one_bed.mean() > 0.5
+    assert grey[one_bed].std() > 3.0  # grain there is
+    assert ratio[one_bed].std() < 0.01  # and it does not move the colour
