@@ -10,9 +10,8 @@ resolution can show and no more:
 * beds with undulating contacts, lamination and grain: fractal noise in octaves from 2 deg
   down to 0.0005 deg (at 300 m, 10 m to 2.6 mm) that modulates the rock's reflectance, so it
   lightens and darkens a bed without greying its colour (``_ALBEDO``), each octave attenuated
-  as a pixel of that
-  footprint would average it (a Gaussian pixel of sigma = footprint / 2), so a coarse view is
-  smooth rock, not aliased speckle;
+  as a pixel of that footprint would average it (a Gaussian pixel of sigma = footprint / 2),
+  so a coarse view is smooth rock, not aliased speckle;
 * a planted wet stain whose structure resolves only close up: a darker, shadowed, bluish core
   (~10 % of its radius; 1-2 px at 300 m, tens of px at 10 m) and a bright efflorescence rim
   (1.5 % of its radius: invisible from afar);
