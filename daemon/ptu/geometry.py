@@ -27,6 +27,12 @@ __all__ = [
     "positions_to_degrees",
 ]
 
+_SEAM = 1e-6
+"""Pixels by which a direction may fall outside a tile and still count as seen in it: one on
+the seam between two butted tiles (the centre of a mosaic of two rows, where the next
+station is aimed) lands a rounding error outside both, y = 576.0000000000002 in the upper
+and -6e-14 in the lower."""
+
 
 def positions_to_degrees(positions: float, resolution: float) -> float:
     """Unit positions to degrees, with ``resolution`` in arc-seconds per position as ``PR``
@@ -237,6 +243,8 @@ class MosaicGeometry:
                 pan, tilt = self.tile_pose(row, col)
                 x, y = angles_to_pixel(pan_w, tilt_w, pan, tilt, self.camera)
                 x, y = float(x), float(y)
-                if 0 <= x < self.camera.width and 0 <= y < self.camera.height:
+                width, height = self.camera.width, self.camera.height
+                if -_SEAM <= x < width + _SEAM and -_SEAM <= y < height + _SEAM:
+                    x, y = min(max(x, 0.0), width), min(max(y, 0.0), height)
                     return col * w + x / fx, row * h + y / fy
         return None

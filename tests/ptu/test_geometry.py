@@ -60,6 +60,16 @@ def test_mosaic_tiles_and_round_trip() -> None:
     assert g.to_mosaic(170.0, 0.0) is None
 
 
+def test_a_direction_on_a_seam_is_seen() -> None:
+    """The centre of a two-row mosaic lies on the seam between its rows; floating point puts
+    it a hair outside both tiles (this zoomed station's aim once did), and the next station's
+    memory lost the chosen target."""
+    zoomed = CameraModel(720, 576, 1.0234633086100724)
+    for camera, pan0, tilt0 in [(zoomed, -4.6276, 1.5409), (CAM, 3.0, -7.25), (CAM, 0.0, 0.0)]:
+        g = MosaicGeometry(camera, 2, 3, pan0=pan0, tilt0=tilt0, downsample=4)
+        assert g.to_mosaic(pan0, tilt0) == pytest.approx((270.0, 144.0), abs=1e-6)
+
+
 async def test_planted_target_is_where_the_mosaic_says() -> None:
     """Shoot a butted 2x3 mosaic with the simulated camera; find the plant through geometry."""
     cam = SimulatedCamera.from_url("sim://outcrop?seed=3&noise=0")
