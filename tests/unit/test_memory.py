@@ -90,6 +90,20 @@ def test_the_favoured_neighbourhood_is_where_the_target_was_placed() -> None:
     assert at(left[0] + 12.0, left[1]) == pytest.approx(0.5, abs=0.01)
 
 
+def test_the_target_is_favoured_on_a_seam() -> None:
+    """The survey aims each station at the chosen target, so in a mosaic of two rows the
+    target lies on the seam between them (here the 10 m station of a field run, zoomed to
+    1.02 deg): the favour is whole there, not lost to a rounding error."""
+    geo = MosaicGeometry(CameraModel(720, 576, 1.0234633086100724), 2, 3, -4.6276, 1.5409, 4)
+    nothing = np.zeros((288, 540), np.uint8)
+    prior = station_prior(
+        nothing, geo, geo, target=(-4.6276, 1.5409), radius_deg=1.81, walk=1.0, weight=0.8
+    )
+    rows, cols = prior.shape
+    assert prior[rows // 2, cols // 2] == pytest.approx(1.0, abs=0.01)
+    assert prior[rows // 2, 0] < 0.7  # 1.5 deg off: e^(-1.5^2 / (2 x 0.9^2)) = 0.25 of it
+
+
 def test_a_prior_must_be_a_finite_map() -> None:
     with pytest.raises(ValueError, match="finite 2-D map"):
         analyze(_two_spots(6, 8), DEFAULT, np.full((4, 4), np.nan, np.float32))
