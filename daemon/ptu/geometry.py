@@ -237,13 +237,13 @@ class MosaicGeometry:
     def to_mosaic(self, pan_w: float, tilt_w: float) -> tuple[float, float] | None:
         """Mosaic pixel where a world direction appears, or ``None`` if no tile saw it."""
         w, h = self.tile_size
-        fx, fy = self.camera.width / w, self.camera.height / h
+        width, height = self.camera.width, self.camera.height
+        fx, fy = width / w, height / h
         for row in range(self.rows):
             for col in range(self.cols):
                 pan, tilt = self.tile_pose(row, col)
                 x, y = angles_to_pixel(pan_w, tilt_w, pan, tilt, self.camera)
                 x, y = float(x), float(y)
-                width, height = self.camera.width, self.camera.height
                 if -_SEAM <= x < width + _SEAM and -_SEAM <= y < height + _SEAM:
                     x, y = min(max(x, 0.0), width), min(max(y, 0.0), height)
                     return col * w + x / fx, row * h + y / fy
