@@ -80,7 +80,7 @@ class SurveyConfig:
     station it was aimed from (what was judged common from afar, the chosen target's
     surroundings; daemon.memory.station_prior); 0 turns it off. At 0.5 what was judged common
     kept half its interest, and a bed cut by the 60 m frame's edge (rare in that frame) beat
-    the stain in 3 of 90 approaches."""
+    the stain in 3 of 90 bench approaches (77 reached the core, against 82 at 0.8)."""
     pan0: float = 0.0
     """Centre of a survey nobody aimed (degrees), as the tripod was set up to face."""
     tilt0: float = 0.0
