@@ -24,6 +24,7 @@ produced only when asked for (products). ``exact_blur=True`` turns this off.
 
 from __future__ import annotations
 
+import heapq
 import math
 from dataclasses import dataclass
 
@@ -313,50 +314,92 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
         return []
     peak = (grid >= local) & (grid > max(floor + 1e-3 * span, 0.0))
     rows, cols = np.nonzero(peak)
-    values = grid[rows, cols]
-    # Greedy picking rarely looks past the first few peaks: sort only the best (ties at the
-    # cut included), and the rest only if those run out. Same order as one full sort.
-    best = min(len(values), 32 * params.top_n)
-    cut = np.partition(values, len(values) - best)[len(values) - best] if best else 0.0
-    first = values >= cut
     chosen: list[tuple[int, int, float, float, float, float]] = []  # peak r, c; y, x; ...
     support = grid if imap.blurred is None else imap.blurred
     base = float(np.median(support))  # heights count from the map's typical level
     whole = support if imap.plain is None else imap.plain
     whole_base = float(np.median(whole))
-    for subset in (np.flatnonzero(first), np.flatnonzero(~first)):
-        order = subset[np.lexsort((cols[subset], rows[subset], -values[subset]))]
-        for i in order:
-            r, c, value = int(rows[i]), int(cols[i]), float(values[i])
-            if any((r - q[0]) ** 2 + (c - q[1]) ** 2 < sep * sep for q in chosen):
+    discount = params.bands > 0 and params.valley > 0
+    width = _BAND_WIDTH * params.sigma(imap.shape) / f
+    # Highest first (ties by row, then column). A band's discount is worked out only when a
+    # peak comes up, and the peak goes back at its discounted height: the discount never
+    # raises a height, so what comes up already discounted is the highest left, and only
+    # the few peaks above the last point chosen are ever measured.
+    heap = [
+        (-float(grid[r, c]), int(r), int(c), not discount) for r, c in zip(rows, cols, strict=True)
+    ]
+    heapq.heapify(heap)
+    while heap and len(chosen) < params.top_n:
+        key, r, c, final = heapq.heappop(heap)
+        if not final:
+            level = whole_base + _EXTENT * (float(whole[r, c]) - whole_base)
+            shape = band_discount(_patch(whole, r, c, level), width) ** params.bands
+            heapq.heappush(heap, (key * shape, r, c, True))
+            continue
+        value = -key
+        if any((r - q[0]) ** 2 + (c - q[1]) ** 2 < sep * sep for q in chosen):
+            continue
+        (y, x), radius = _refine(grid, r, c), sep
+        if params.valley > 0:
+            level = whole_base + params.valley * (float(whole[r, c]) - whole_base)
+            if any(_patch(whole, r, c, level)[q[0], q[1]] for q in chosen):
                 continue
-            (y, x), radius = _refine(grid, r, c), sep
-            if params.valley > 0:
-                level = whole_base + params.valley * (float(whole[r, c]) - whole_base)
-                if any(_patch(whole, r, c, level)[q[0], q[1]] for q in chosen):
-                    continue
-                height = float(support[r, c]) - base
-                patch = _patch(support, r, c, base + _EXTENT * height)
-                ring = _ring_below(support, r, c, patch, base=base, height=height)
-                if ring is not None:  # aim at the ring's centre; it spans what it encloses
-                    y, x, area = ring
-                    radius = max(1.0, math.sqrt(area / math.pi))
-                else:
-                    top = base + _TOP * height
-                    y, x = _centre(support, _patch(support, r, c, top), top, (y, x))
-                    radius = max(1.0, math.sqrt(float(patch.sum()) / math.pi))
-                    y, x = _settle(support, base, y, x, radius)
-                if any(math.hypot(y - q[2], x - q[3]) < max(radius, q[5]) for q in chosen):
-                    continue
-            chosen.append((r, c, y, x, value, radius))
-            if len(chosen) == params.top_n:
-                break
-        if len(chosen) == params.top_n:
-            break
+            height = float(support[r, c]) - base
+            patch = _patch(support, r, c, base + _EXTENT * height)
+            ring = _ring_below(support, r, c, patch, base=base, height=height)
+            if ring is not None:  # aim at the ring's centre; it spans what it encloses
+                y, x, area = ring
+                radius = max(1.0, math.sqrt(area / math.pi))
+            else:
+                top = base + _TOP * height
+                y, x = _centre(support, _patch(support, r, c, top), top, (y, x))
+                radius = max(1.0, math.sqrt(float(patch.sum()) / math.pi))
+                y, x = _settle(support, base, y, x, radius)
+            if any(math.hypot(y - q[2], x - q[3]) < max(radius, q[5]) for q in chosen):
+                continue
+        chosen.append((r, c, y, x, value, radius))
     return [
         InterestPoint(rank, x * f + (f - 1) / 2.0, y * f + (f - 1) / 2.0, value, radius * f)
         for rank, (_, _, y, x, value, radius) in enumerate(chosen, start=1)
     ]
+
+
+def band_discount(patch: np.ndarray, width: float) -> float:
+    """min(1, aspect / ``_BAND_ASPECT``) for a patch that is a band, else 1.
+
+    A band is a patch whose spread across (the smaller standard deviation of its cells'
+    positions) exceeds ``width``: wider than the blur makes a line, so a bed, the sky or a
+    ledge's shadow, not a vein or a crack; its aspect is the ratio of the two deviations.
+    Roundness (``isotropy``) judges the map's curvature at twice the blur, and along a
+    band of uneven thickness or rarity it finds a string of round caps; the patch knows
+    the whole band. A lens along the bedding (aspect 2.5-4) is not discounted.
+
+    Examples
+    --------
+    >>> band = np.zeros((60, 200), bool)
+    >>> band[20:32, :] = True
+    >>> round(band_discount(band, 2.0), 2), band_discount(band, 5.0)
+    (0.3, 1.0)
+    >>> yy, xx = np.mgrid[:60, :200]
+    >>> band_discount((yy - 30) ** 2 + (xx - 100) ** 2 < 400, 2.0)
+    1.0
+    """
+    ys, xs = np.nonzero(patch)
+    if len(ys) < 3:
+        return 1.0
+    across, along = np.sqrt(np.maximum(np.linalg.eigvalsh(np.cov(np.stack([ys, xs]))), 0.0))
+    if across <= width:
+        return 1.0
+    return min(1.0, float(across / along) / _BAND_ASPECT)
+
+
+_BAND_ASPECT = 0.2
+"""Patches more elongated than 5 : 1 are discounted in proportion."""
+_BAND_WIDTH = 1.5
+"""A band is wider (standard deviation across) than 1.5 blur sigmas; a thinner one is a line
+the blur made, a vein or a crack, and keeps its height. At one sigma, top-1 on veins rose
+82.5 -> 87.5 % and on large targets to 84.2 %, but cracks (crackforest) fell 55 -> 50 %
+and repeat@1 on large targets to 88.3 %."""
 
 
 _EXTENT = 0.5

@@ -7,7 +7,7 @@ from their surroundings in local contrast more than in any one value, hardly reg
 Each pixel gets a descriptor: the local standard deviation of intensity at each of
 ``texture_scales`` (Gaussian sigmas, analysed-image pixels), its brightness against its
 surroundings (the log ratio of the intensity at the finest scale to that at
-``texture_surround``), and, for
+``texture_surround``, on the side likest it), and, for
 colour images, two opponent chroma values (red - green, yellow - blue). Its rarity is the
 squared Mahalanobis distance from the image's typical descriptor, the negative
 log-likelihood under one Gaussian model of the image's textures (Reed & Yu's RX detector on
@@ -16,6 +16,11 @@ overall is the I plane's business, and an absolute level made whole shadowed led
 (pooled top-1 on the real sets 48 -> 50 %); as a ratio rather than a difference it took
 pooled top-1 from 50 to 55 % (AI4Mars rocks, whose shadows are their most visible part, 35 ->
 44 %), where log intensity for the contrast too (58 %) lost most thin veins on dark rock.
+Against the likest of five surroundings (``_likest_side``) rather than the centred one, it
+took pooled top-1 from 55.6 to 59.7 % (AI4Mars 44.1 -> 49.7, cracks 50.0 -> 56.9, tile
+defects 32.8 -> 36.1; tiny spots 89.2 -> 90.0 %): the step between two common surfaces no
+longer reads as rare brightness. The median of the five gained little (56.2 %), a soft
+minimum less (57.3 %), reaching half or 1.5 surrounds away 58.2 / 58.5 %.
 
 Mean and covariance are estimated robustly, by concentration steps (the C-step of
 Rousseeuw & Van Driessen's FAST-MCD): each step refits on the ``1 - texture_trim`` share of
@@ -70,8 +75,27 @@ def descriptors(bgr: np.ndarray, scales: tuple[float, ...], surround: float) -> 
         blurred = fine if sigma == scales[0] else cv2.GaussianBlur(moments, (0, 0), sigma)
         mean, square = cv2.extractChannel(blurred, 0), cv2.extractChannel(blurred, 1)
         planes.append(cv2.sqrt(np.maximum(square - cv2.multiply(mean, mean), 0.0)))
-    planes.append(cv2.extractChannel(fine, 4) - cv2.GaussianBlur(ratio, (0, 0), surround))
+    around = cv2.GaussianBlur(ratio, (0, 0), surround)
+    planes.append(_likest_side(cv2.extractChannel(fine, 4), around, round(surround)))
     return cv2.merge([*planes, cv2.extractChannel(fine, 2), cv2.extractChannel(fine, 3)])
+
+
+def _likest_side(own: np.ndarray, around: np.ndarray, reach: int) -> np.ndarray:
+    """own - around, with ``around`` taken where it is likest ``own``: centred, or ``reach``
+    pixels up, down, left or right.
+
+    Next to a step between two common surfaces (a bed contact, the sky's edge, a rock's
+    lit side against its shadow) the centred surround mixes both and every pixel there
+    looks brighter or darker than it; one side is its own surface and says it is not. A
+    pebble, a vein or a stain differs from every side and keeps its contrast.
+    """
+    rows, cols = own.shape
+    padded = cv2.copyMakeBorder(around, reach, reach, reach, reach, cv2.BORDER_REPLICATE)
+    best = own - around
+    for dy, dx in ((0, reach), (2 * reach, reach), (reach, 0), (reach, 2 * reach)):
+        diff = own - padded[dy : dy + rows, dx : dx + cols]
+        np.copyto(best, diff, where=np.abs(diff) < np.abs(best))
+    return best
 
 
 def texture_rarity(bgr: np.ndarray, params: VisionParams) -> np.ndarray:

@@ -170,8 +170,36 @@ def test_thin_bright_vein_in_dark_rock_is_found(rng):
     assert 55 <= top.x <= 205 and abs(top.y - (110 + 12 * np.sin(top.x / 40.0))) < 8
 
 
-def test_partial_sort_of_peaks_picks_what_a_full_sort_picks(rng):
-    """Hundreds of peaks with many tied values: the top-k shortcut must not change the pick."""
+def test_a_band_is_discounted_below_a_compact_patch() -> None:
+    """A bed of rare colour across the frame, 20 px thick, outscores a round patch by a
+    quarter; as a band (aspect 12 : 1, wider than the blur) it comes second. A line the
+    blur made (a vein, 2 px) keeps its height."""
+    grid = np.zeros((120, 240), np.float32)
+    grid[70:90, :] = 1.0
+    yy, xx = np.mgrid[:120, :240]
+    grid[(yy - 30) ** 2 + (xx - 120) ** 2 < 15**2] = 0.8
+    imap = InterestMap(cv2.GaussianBlur(grid, (0, 0), 2.0), 1, grid.shape)
+    params = DEFAULT.replace(blur_fraction=0.0, blur=2.0, blur_mode="sigma", top_n=2)
+
+    def where(point) -> str:
+        return "band" if 70 <= point.y < 90 else "patch" if abs(point.y - 30) < 3 else "?"
+
+    assert [where(p) for p in find_points(imap, params.replace(bands=0.0))] == ["band", "patch"]
+    points = find_points(imap, params)
+    assert [where(p) for p in points] == ["patch", "band"]
+    assert points[1].score < 0.8 * 0.99
+    vein = np.zeros((120, 240), np.float32)
+    vein[60:62, 20:220] = 1.0
+    imap = InterestMap(cv2.GaussianBlur(vein, (0, 0), 2.0), 1, vein.shape)
+    line = find_points(imap, params)[0]
+    assert (
+        59 <= line.y <= 62 and line.score == find_points(imap, params.replace(bands=0.0))[0].score
+    )
+
+
+def test_peaks_come_in_the_order_a_full_sort_gives(rng):
+    """Hundreds of peaks with many tied values: taking them lazily off a heap must not change
+    the pick."""
     grid = np.round(rng.random((200, 240)) * 8).astype(np.float32)  # 9 levels: ties galore
     params = PAPER.replace(blur=2.0, top_n=40)
     picked = find_points(InterestMap(grid, 1, grid.shape), params)
