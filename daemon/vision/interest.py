@@ -319,8 +319,9 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     base = float(np.median(support))  # heights count from the map's typical level
     whole = support if imap.plain is None else imap.plain
     whole_base = float(np.median(whole))
-    discount = params.bands > 0 and params.valley > 0
+    discount = max(params.bands, params.frame) > 0 and params.valley > 0
     width = _BAND_WIDTH * params.sigma(imap.shape) / f
+    reach = _FRAME_REACH * params.sigma(imap.shape) / f
     # Highest first (ties by row, then column). A band's discount is worked out only when a
     # peak comes up, and the peak goes back at its discounted height: the discount never
     # raises a height, so what comes up already discounted is the highest left, and only
@@ -333,7 +334,9 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
         key, r, c, final = heapq.heappop(heap)
         if not final:
             level = whole_base + _EXTENT * (float(whole[r, c]) - whole_base)
-            shape = band_discount(_patch(whole, r, c, level), width) ** params.bands
+            patch = _patch(whole, r, c, level)
+            shape = band_discount(patch, width) ** params.bands
+            shape *= (1.0 - frame_share(patch, reach)) ** params.frame
             heapq.heappush(heap, (key * shape, r, c, True))
             continue
         value = -key
@@ -393,6 +396,36 @@ def band_discount(patch: np.ndarray, width: float) -> float:
     return min(1.0, float(across / along) / _BAND_ASPECT)
 
 
+def frame_share(patch: np.ndarray, reach: float) -> float:
+    """The share of a patch's cells less than ``reach`` cells from the frame.
+
+    The blur already counts the outside of the frame as typical rock, so a target cut by
+    the frame scores for what is seen of it; but a bed running along the frame's edge, or
+    the sliver of a rock the frame cuts, is still a whole patch of rare class, rare because
+    the frame truncated its area. Discounting by the share that hugs the frame leaves a
+    target inside the view alone and one crossing the edge mostly so.
+
+    Examples
+    --------
+    >>> patch = np.zeros((50, 80), bool)
+    >>> patch[20:30, 30:40] = True                  # well inside
+    >>> frame_share(patch, 3.0)
+    0.0
+    >>> patch[:] = False
+    >>> patch[0:4, 10:70] = True                    # a sliver along the top
+    >>> frame_share(patch, 3.0)
+    0.75
+    """
+    ys, xs = np.nonzero(patch)
+    if len(ys) == 0:
+        return 0.0
+    rows, cols = patch.shape
+    near = (np.minimum(ys, rows - 1 - ys) < reach) | (np.minimum(xs, cols - 1 - xs) < reach)
+    return float(near.mean())
+
+
+_FRAME_REACH = 1.5
+"""Cells nearer the frame than 1.5 blur sigmas count as hugging it."""
 _BAND_ASPECT = 0.2
 """Patches more elongated than 5 : 1 are discounted in proportion."""
 _BAND_WIDTH = 1.5

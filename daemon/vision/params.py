@@ -140,6 +140,11 @@ class VisionParams:
     height) is a band: elongated past 5 : 1 and wider than the blur, a bed, the sky or a
     ledge's shadow rather than a thing on the outcrop (``interest.band_discount``). 0: no
     discount."""
+    frame: float = 0.0
+    """With ``valley`` > 0, exponent of the discount on a peak by the share of its patch
+    (above half its height) within 1.5 blur sigmas of the frame (``interest.frame_share``):
+    a bed or a rock the frame cuts down to a sliver is mostly out of view, and a class the
+    frame truncates looks rarer than it is. 0: no discount."""
     top_n: int = 3
     min_distance: float | None = None
     """Minimum distance between points (pixels); None means B."""
@@ -170,8 +175,8 @@ class VisionParams:
             raise ValueError(f"unknown hue_grey mode {self.hue_grey!r}")
         if self.blur_fraction < 0 or self.value_rarity < 0 or not 0 <= self.isotropy <= 1:
             raise ValueError("blur_fraction, value_rarity >= 0; isotropy in [0, 1]")
-        if not 0 <= self.valley < 1 or self.max_pixels < 0 or self.bands < 0:
-            raise ValueError("valley in [0, 1), max_pixels >= 0, bands >= 0")
+        if not 0 <= self.valley < 1 or self.max_pixels < 0 or min(self.bands, self.frame) < 0:
+            raise ValueError("valley in [0, 1), max_pixels >= 0, bands and frame >= 0")
         if self.blur_mode not in ("sigma", "fwhm"):
             raise ValueError(f"unknown blur mode {self.blur_mode!r}")
         if self.texture_weight < 0 or self.texture_blur <= 0 or not 0 <= self.fused_isotropy <= 1:
@@ -265,7 +270,12 @@ fastest profile, and the best on small colour targets on layered rock. Each depa
 """
 
 DEFAULT = UNCOMMON.replace(
-    texture_weight=3.5, fused_isotropy=0.6, blur_fraction=0.012, shadow_gate=1.0, bands=1.0
+    texture_weight=3.5,
+    fused_isotropy=0.6,
+    blur_fraction=0.012,
+    shadow_gate=1.0,
+    bands=1.0,
+    frame=1.0,
 )
 """``uncommon`` plus texture rarity (``texture``) and the shadow gate (``shadow``): what the rig
 uses unless told otherwise. ``bench/real.py`` (347 real labelled images of five kinds), top-1 /

@@ -197,6 +197,21 @@ def test_a_band_is_discounted_below_a_compact_patch() -> None:
     )
 
 
+def test_a_sliver_along_the_frame_is_discounted() -> None:
+    """A rare bed the frame cuts to a 6 px sliver along the top outscores a patch inside the
+    view; discounted by the share of it that hugs the frame, it comes second."""
+    grid = np.zeros((120, 240), np.float32)
+    grid[:6, 40:200] = 1.0
+    yy, xx = np.mgrid[:120, :240]
+    grid[(yy - 70) ** 2 + (xx - 120) ** 2 < 10**2] = 0.8
+    blurred = cv2.GaussianBlur(grid, (0, 0), 2.0, borderType=cv2.BORDER_CONSTANT)
+    imap = InterestMap(blurred, 1, grid.shape)
+    params = DEFAULT.replace(blur_fraction=0.0, blur=2.0, blur_mode="sigma", top_n=2)
+    plain = find_points(imap, params.replace(frame=0.0))
+    assert [p.y < 10 for p in plain] == [True, False]
+    assert [p.y < 10 for p in find_points(imap, params)] == [False, True]
+
+
 def test_peaks_come_in_the_order_a_full_sort_gives(rng):
     """Hundreds of peaks with many tied values: taking them lazily off a heap must not change
     the pick."""
