@@ -7,7 +7,7 @@ import pytest
 from daemon.vision.explain import describe
 from daemon.vision.params import DEFAULT, UNCOMMON, VisionParams
 from daemon.vision.pipeline import analyze
-from daemon.vision.texture import texture_rarity
+from daemon.vision.texture import descriptors, texture_rarity
 
 
 def _road(seed: int = 3) -> np.ndarray:
@@ -45,6 +45,19 @@ def test_the_crack_is_explained_by_its_texture() -> None:
 def test_profiles_without_texture_do_not_explain_it() -> None:
     res = analyze(_road(), UNCOMMON)
     assert all(e["plane"] != "texture" for expl in res.explanations for e in expl)
+
+
+def test_a_step_between_two_surfaces_is_not_rare_brightness() -> None:
+    """Beside a bed contact each pixel is judged against its own side; a dark spot differs
+    from every side and keeps its contrast."""
+    img = np.full((80, 120, 3), 80, np.uint8)
+    img[:, 60:] = 160
+    img[38:43, 88:93] = 40
+    brightness = descriptors(img, (1.5, 4.0), 16.0)[:, :, 2]
+    # Within 8 px of the step; the centred surround, half of each side there, would put
+    # them half the step's log ratio (0.56) away, ~0.28.
+    assert np.abs(brightness[40, 52:68]).max() < 0.1
+    assert brightness[40, 90] < -0.5  # the spot: about 2.5 times darker than its rock
 
 
 def test_flat_image_has_no_points_with_texture() -> None:
