@@ -285,6 +285,9 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     centre of mass of the patch's top (``_TOP``) settled by a mean shift at the point's own
     radius (``_settle``); without ``valley`` they are the separation and the refined peak.
     Extents and positions are taken on ``blurred`` when ``grid`` was reshaped by roundness.
+    With ``bands`` or ``frame``, a peak's height is first discounted by what its patch
+    (above half its height) is: a band (``band_discount``) or a patch hugging the frame
+    (``frame_share``).
 
     Examples
     --------
@@ -322,8 +325,8 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     discount = max(params.bands, params.frame) > 0 and params.valley > 0
     width = _BAND_WIDTH * params.sigma(imap.shape) / f
     reach = _FRAME_REACH * params.sigma(imap.shape) / f
-    # Highest first (ties by row, then column). A band's discount is worked out only when a
-    # peak comes up, and the peak goes back at its discounted height: the discount never
+    # Highest first (ties by row, then column). A peak's discounts are worked out only when
+    # it comes up, and the peak goes back at its discounted height: the discount never
     # raises a height, so what comes up already discounted is the highest left, and only
     # the few peaks above the last point chosen are ever measured.
     heap = [

@@ -283,8 +283,8 @@ on bands and on patches hugging the frame (``interest``): what the rig uses unle
 81.3 / 94.5 %, against 36.6 / 64.6 / 76.7 for ``uncommon`` and 37.2 / 57.1 for the best
 baselines. ``bench/quality.py``: every goal met on tiny spots (top-1 92.5 %, any of 3 98.3 %)
 and on the seed's cliff (top-1 100 %); veins 89.2 / 97.5 % (spectral residual 90.8 / 99.2),
-large targets 83.3 / 94.2 %. About three times the time of ``uncommon``, still milliseconds at
-the working size."""
+large targets 83.3 / 94.2 %. About 2.3 times the time of ``uncommon`` (1.10 x the floor at 1 MP),
+still milliseconds at the working size."""
 
 PROFILES: dict[str, VisionParams] = {
     "paper": PAPER,
