@@ -13,7 +13,8 @@ map dips below ``valley`` x the lower peak between them (a persistence test, fre
 size guess), so three points are three targets from a 5 px spot to a patch of 15 % of the
 image; each point's radius is the size of its own patch. Optionally (``isotropy``) the
 blurred interest is scaled by the roundness of its surroundings, which takes long ledge
-shadows off the top of the list.
+shadows off the top of the list; and (``bands``, ``frame``) each peak is judged by its whole
+patch, so beds, the skyline and slivers the frame cuts are discounted.
 
 Speed without approximation worth the name: a sigma-B blur removes everything above
 ~1/(2 pi B) cycles/px, so the sum map is first averaged over f x f blocks (f a power of two
