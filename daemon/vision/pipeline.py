@@ -67,9 +67,10 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
         raise ValueError(f"expected (M, N, 3) uint8, got {bgr.shape} {bgr.dtype}")
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
-    if params.presmooth > 0:
-        bgr = cv2.GaussianBlur(bgr, (0, 0), params.presmooth)
-    hsi = rgb_to_hsi(bgr, params.grey_saturation, params.hue_min_intensity)
+    # Sensor noise is smoothed out of what is segmented only: texture and shade are judged
+    # on the image as it came (fine local contrast is what texture rarity measures).
+    smooth = cv2.GaussianBlur(bgr, (0, 0), params.presmooth) if params.presmooth > 0 else bgr
+    hsi = rgb_to_hsi(smooth, params.grey_saturation, params.hue_min_intensity)
     t1 = time.perf_counter()
     timings["hsi"] = (t1 - t0) * 1e3
     hue, hue_mask = hsi.h, None

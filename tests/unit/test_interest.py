@@ -288,6 +288,23 @@ def test_a_patch_lit_on_one_side_is_aimed_at_its_mass() -> None:
     assert abs(point.x - 80) < 3.5 and abs(point.y - 60) < 2  # the top's centre: 88
 
 
+def test_a_wide_band_is_aimed_at_its_middle_whatever_the_noise() -> None:
+    """A bed (a patch much longer than the point's radius) with a little texture on top:
+    eight looks put the point within a few cells of one place, not wherever the noise puts
+    the top (the top's centre wandered over 83 cells here)."""
+    yy, xx = np.mgrid[:100, :200].astype(np.float32)
+    band = np.exp(-((yy - 50) ** 2) / 128.0)
+    band *= np.clip((xx - 20) / 10, 0, 1) * np.clip((180 - xx) / 10, 0, 1)
+    params = DEFAULT.replace(isotropy=0.0, bands=0.0)
+    xs = []
+    for seed in range(8):
+        noise = np.random.default_rng(seed).normal(0, 1, band.shape).astype(np.float32)
+        noise = cv2.GaussianBlur(noise, (0, 0), 4)
+        grid = (band * (1 + 0.05 * noise / noise.std())).astype(np.float32)
+        xs.append(find_points(InterestMap(grid, 1, grid.shape), params)[0].x)
+    assert np.ptp(xs) < 20 and abs(np.mean(xs) - 100) < 10
+
+
 def test_a_patch_split_by_roundness_is_one_target() -> None:
     """A roundness ripple cuts a notch down one wide patch: two peaks on ``grid``, one patch
     on the map before roundness, so one point, not two on the same lichen."""

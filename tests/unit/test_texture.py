@@ -60,6 +60,21 @@ def test_a_step_between_two_surfaces_is_not_rare_brightness() -> None:
     assert brightness[40, 90] < -0.5  # the spot: about 2.5 times darker than its rock
 
 
+def test_presmoothing_conditions_the_segmentation_not_the_texture() -> None:
+    """A 1 px checkerboard of the grey field's own mean: only its texture tells it apart,
+    and the Gaussian that quiets sensor noise before segmentation would erase it."""
+    rng = np.random.default_rng(5)
+    img = np.repeat(rng.normal(120, 3, (120, 160)).clip(0, 255).astype(np.uint8)[..., None], 3, 2)
+    yy, xx = np.mgrid[50:70, 70:90]
+    img[50:70, 70:90] = np.where((yy + xx) % 2 == 0, 100, 140).astype(np.uint8)[..., None]
+    res = analyze(img, DEFAULT.replace(presmooth=1.5))
+    assert float(res.hsi.i[52:68, 72:88].std()) < 3.0  # segmented: the checkerboard smoothed
+    best = res.points[0]
+    assert 65 <= best.x <= 95 and 45 <= best.y <= 75
+    (texture,) = [e for e in res.explanations[0] if e["plane"] == "texture"]
+    assert texture["rarer_than"] >= 0.9
+
+
 def test_flat_image_has_no_points_with_texture() -> None:
     assert analyze(np.full((40, 50, 3), 90, np.uint8), DEFAULT).points == []
 
