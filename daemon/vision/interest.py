@@ -301,10 +301,10 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     [(1, 10.0, 10.0, 5.0, 5.0), (2, 28.0, 30.0, 3.0, 5.0)]
     >>> ridge = np.zeros((20, 60), np.float32)
     >>> ridge[10, 5:55] = 1.0
-    >>> ridge[10, [10, 45]] = 1.2                   # two bumps on one ridge: one target
+    >>> ridge[10, [10, 45]] = 1.2                   # two bumps on one ridge: one target,
     >>> pts = find_points(InterestMap(ridge, 1, (20, 60)), PAPER.replace(blur=3.0, valley=0.5))
-    >>> [(round(p.x), round(p.y), round(p.radius, 1)) for p in pts]
-    [(10, 10, 4.0)]
+    >>> [(round(p.x), round(p.y), round(p.radius, 1)) for p in pts]  # aimed at its middle
+    [(30, 10, 4.0)]
     """
     grid = imap.grid
     if params.top_n == 0 or grid.size == 0:
