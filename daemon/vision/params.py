@@ -289,7 +289,7 @@ of 3 / repeat@1: 63.7 / 79.5 / 95.7 %, against 36.6 / 65.1 / 81.0 for ``uncommon
 57.1 for the best baselines. ``bench/quality.py``: every goal met on tiny spots (top-1 92.5 %,
 any of 3 99.2 %) and on the seed's cliff (top-1 100 %); veins 88.3 / 95.0 % (spectral residual
 90.8 / 99.2), large targets 82.5 / 92.5 %; repeat@1 91.7-96.7 % with a target, 89.2 % with
-none. About 2.3 times the time of ``uncommon`` (1.10 x the floor at 1 MP), still milliseconds
+none. About 2.3 times the time of ``uncommon`` (1.11 x the floor at 1 MP), still milliseconds
 at the working size."""
 
 PROFILES: dict[str, VisionParams] = {
