@@ -137,6 +137,7 @@ def explain_points(
     *,
     texture: np.ndarray | None = None,
     shade: np.ndarray | None = None,
+    layers: list[np.ndarray] | None = None,
 ) -> list[list[dict]]:
     """Say, for each point, which planes and classes made it interesting.
 
@@ -149,7 +150,10 @@ def explain_points(
     weighted as the fusion blurred it) and the share of the image whose texture is commoner.
     With ``shade`` (``shadow.shadow_likelihood``) an entry gives the point's shadow
     likelihood, weighted as the blur summed: a point the gate could not take off the top
-    says how likely it is shade.
+    says how likely it is shade. With ``layers`` (each plane's ``layers.layer_share``) an
+    entry gives how much the point lies on a layer across the view: each plane's share,
+    weighted likewise, averaged over the planes by their contributions (the classes that
+    made the point rare were discounted by that much, ``VisionParams.layers``).
     """
     if not points:
         return []
@@ -191,6 +195,13 @@ def explain_points(
         if shade is not None:
             likelihood = float((shade[box] * kernel).sum())
             planes.append({"plane": "shade", "likelihood": round(likelihood, 3)})
+        if layers is not None:
+            # Each plane's layer share around the point, weighted by what that plane gave:
+            # a stain on a bed shares the bed's hue class, not the class that made it rare.
+            weights = [e["contribution"] for e in planes[:3]]
+            shares = [float((plane[box] * kernel).sum()) for plane in layers]
+            share = float(np.dot(weights, shares)) / sum(weights) if sum(weights) > 0 else 0.0
+            planes.append({"plane": "layer", "share": round(share, 3)})
         out.append(planes)
     return out
 
@@ -221,7 +232,7 @@ def _texture_entry(
 
 
 def clauses(explanation: list[dict]) -> str:
-    """The plain-language words on texture and shade for a point's line ("" for neither).
+    """The plain-language words on texture, shade and layers for a point's line ("" for none).
 
     Examples
     --------
@@ -229,6 +240,8 @@ def clauses(explanation: list[dict]) -> str:
     '; texture rarer than 99 % of the image'
     >>> clauses([{"plane": "I", "contribution": 3.0}, {"plane": "shade", "likelihood": 0.7}])
     '; probably in shade'
+    >>> clauses([{"plane": "layer", "share": 0.8}])
+    '; part of a layer across the view'
     """
     words = ""
     for e in explanation:
@@ -236,6 +249,8 @@ def clauses(explanation: list[dict]) -> str:
             words += f"; texture rarer than {100 * e['rarer_than']:.0f} % of the image"
         elif e["plane"] == "shade" and e["likelihood"] >= _SHADE:
             words += "; probably in shade"
+        elif e["plane"] == "layer" and e["share"] >= _LAYER:
+            words += "; part of a layer across the view"
     return words
 
 
@@ -244,6 +259,8 @@ _RARE_TEXTURE = 0.9
 commoner texture."""
 _SHADE = 0.5
 """A point whose surroundings are more likely shade than not is said to be in shade."""
+_LAYER = 0.5
+"""A point whose surroundings are more layer than not is said to be part of one."""
 
 
 def _natural_value(plane: str, value: int) -> float:

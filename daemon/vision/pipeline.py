@@ -12,6 +12,7 @@ from .cooccurrence import Segmentation, segment_plane
 from .explain import clauses, explain_points, plain_lines
 from .hsi import HSIPlanes, hue_histogram_rotation, rgb_to_hsi
 from .interest import InterestMap, InterestPoint, find_points, interest_map, summed_uncommon
+from .layers import discount_texture, discount_uncommon, layer_share
 from .params import VisionParams
 from .shadow import shadow_likelihood
 from .texture import texture_rarity
@@ -92,8 +93,13 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
     t2 = time.perf_counter()
     timings["segment"] = (t2 - t1) * 1e3
     maps = [uncommon_map(seg, params) for seg in segs]
+    shares = [layer_share(seg) for seg in segs] if params.layers > 0 else None
+    if shares is not None:
+        maps = [discount_uncommon(m, s, params.layers) for m, s in zip(maps, shares, strict=True)]
     total = summed_uncommon(segs, params, maps)
     rarity = texture = texture_rarity(bgr, params) if params.texture_weight > 0 else None
+    if rarity is not None and shares is not None:
+        rarity = texture = discount_texture(rarity, shares, params.layers)
     shade = shadow_likelihood(bgr, params) if params.shadow_gate > 0 else None
     if shade is not None:
         # Shade is judged on the image, before any blur: the gate keeps a shadow's rarity
@@ -107,7 +113,9 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
     points = find_points(imap, params)
     t3 = time.perf_counter()
     timings["interest"] = (t3 - t2) * 1e3
-    explanations = explain_points(points, segs, params, maps, texture=rarity, shade=shade)
+    explanations = explain_points(
+        points, segs, params, maps, texture=rarity, shade=shade, layers=shares
+    )
     descriptions = [
         line + clauses(expl)
         for line, expl in zip(plain_lines(points, hsi), explanations, strict=True)
