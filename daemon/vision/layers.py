@@ -4,7 +4,7 @@ An outcrop is bedded, and a thin bed of an unusual colour is a rare class (its a
 small because it is thin) though it is the outcrop's structure, not a thing on it; the two
 contacts that bound it, close together, are rare texture. On generated outcrops such beds
 were the commonest reason a spot, a vein or a lichen lost first place. A class region is a
-*layer* as far as it spans the view's width (0 at half of it, 1 from 90 %) and is thicker
+*layer* as far as it spans the view's width (0 at 60 % of it, 1 from 95 %) and is thicker
 than a line (its area over its width: 0 at 0.6 % of the image diagonal, 1 from 1.8 %), so
 a vein or a crack crossing the view keeps its rarity. Side to side only: the bedding of an
 outcrop seen upright runs across the view, and a dyke or a crack cutting it from top to
@@ -26,8 +26,11 @@ from .cooccurrence import Segmentation
 
 __all__ = ["discount_texture", "discount_uncommon", "layer_share"]
 
-_SPAN = (0.5, 0.9)
-"""Width shares of the view over which a region goes from no layer to a whole one."""
+_SPAN = (0.6, 0.95)
+"""Width shares of the view over which a region goes from no layer to a whole one. A lens
+along the bedding (aspect 2.5-4) can reach three quarters of the view and is a thing on the
+outcrop: from half of the view instead, seeds 0-239 gave large targets top-1 88.3 % instead of
+89.2 (any of 3 94.6 instead of 95.4), real images the same within 0.5."""
 _THICK = (0.006, 0.018)
 """Mean thickness (area / width), as shares of the image diagonal, over which a region goes
 from a line (a vein, a crack: no layer) to a bed."""

@@ -294,10 +294,10 @@ discount (``layers``: a bed across the view counts at half its rarity), the disc
 and on patches hugging the frame (``interest``) and a light pre-smoothing of what is segmented
 (sensor noise flipped small classes in and out between looks): what the rig uses unless told
 otherwise. ``bench/real.py`` (347 real labelled images of five kinds), top-1 / any of 3 /
-repeat@1: 63.1 / 80.1 / 96.0 %, against 36.6 / 65.1 / 81.0 for ``uncommon`` and 37.2 / 57.1
+repeat@1: 63.1 / 80.4 / 96.5 %, against 36.6 / 65.1 / 81.0 for ``uncommon`` and 37.2 / 57.1
 for the best baselines. ``bench/quality.py``: every goal met on tiny spots (top-1 95.8 %, any of
-3 99.2 %) and on the seed's cliff (top-1 100 %); veins 89.2 / 96.7 % (spectral residual 90.8 /
-99.2), large targets 85.0 / 95.0 %; repeat@1 90.8-97.5 % with a target, 88.3 % with none.
+3 99.2 %) and on the seed's cliff (top-1 100 %); veins 89.2 / 95.8 % (spectral residual 90.8 /
+99.2), large targets 86.7 / 96.7 %; repeat@1 91.7-98.3 % with a target, 89.2 % with none.
 About 2.7 times the time of ``uncommon`` (1.25 x the floor at 1 MP), still milliseconds at the
 working size."""
 
