@@ -298,8 +298,8 @@ repeat@1: 63.1 / 80.4 / 96.5 %, against 36.6 / 65.1 / 81.0 for ``uncommon`` and 
 for the best baselines. ``bench/quality.py``: every goal met on tiny spots (top-1 95.8 %, any of
 3 99.2 %) and on the seed's cliff (top-1 100 %); veins 89.2 / 95.8 % (spectral residual 90.8 /
 99.2), large targets 86.7 / 96.7 %; repeat@1 91.7-98.3 % with a target, 89.2 % with none.
-About 2.7 times the time of ``uncommon`` (1.25 x the floor at 1 MP), still milliseconds at the
-working size."""
+About 2.8 times the time of ``uncommon`` (1.25-1.33 x the floor at 1 MP), still milliseconds at
+the working size."""
 
 PROFILES: dict[str, VisionParams] = {
     "paper": PAPER,
