@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo rig test bench bench-quality bench-real bench-approach bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security lint clean
+.PHONY: demo rig test bench bench-quality bench-camera bench-real bench-approach bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security lint clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -28,10 +28,14 @@ test: $(STAMP)
 	$(PY) -m ruff check .
 	$(PY) -m pytest -q
 
-bench: bench-quality bench-real bench-approach bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security
+bench: bench-quality bench-camera bench-real bench-approach bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security
 
 bench-quality: $(STAMP)
 	$(PY) -m bench.quality --scenes 120
+
+# The same scenes as an ordinary camera delivers them (vignetting, gradient, defocus, JPEG).
+bench-camera: $(STAMP)
+	$(PY) -m bench.quality --scenes 120 --camera
 
 # Real labelled images from ../shared/data/real (or env CYBORG_REAL_DATA); says so if absent.
 bench-real: $(STAMP)

@@ -29,7 +29,13 @@ share of the view. Scores per regime and method, averaged over scenes:
   their best points within the hit tolerance of each other: will a second look at the same
   outcrop send the rover to the same place?
 
-Usage: ``python -m bench.quality [--regimes tiny,seed,...] [--scenes 120] [--seed 0] [--json]``.
+With ``--camera`` every scene and look goes through an ordinary camera first
+(``daemon.regimes.through_camera``: vignetting, a light gradient, slight defocus, JPEG at
+quality 60-90; sensor noise before the JPEG, as in a camera): the regimes are rendered
+perfectly, and a detector tuned on them alone may lean on what no real camera keeps.
+
+Usage: ``python -m bench.quality [--regimes tiny,seed,...] [--scenes 120] [--seed 0]
+[--camera [vignetting,gradient,defocus,jpeg]] [--json]``.
 """
 
 from __future__ import annotations
@@ -40,7 +46,7 @@ import json
 import math
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 
 import cv2
@@ -54,7 +60,14 @@ from bench.baselines import (
     spectral_residual,
 )
 from daemon.products import analyze_image, input_points
-from daemon.regimes import DESCRIPTIONS, REGIMES, seed_cliff
+from daemon.regimes import (
+    CAMERA_EFFECTS,
+    DESCRIPTIONS,
+    JPEG_QUALITY,
+    REGIMES,
+    seed_cliff,
+    through_camera,
+)
 from daemon.scene import Scene
 from daemon.vision.interest import InterestPoint
 from daemon.vision.params import DEFAULT, PAPER, UNCOMMON, VisionParams
@@ -193,10 +206,15 @@ def repeats(first: list[InterestPoint], second: list[InterestPoint], tolerance: 
 
 
 def run_regime(
-    generate: Callable[[int], Scene], n_scenes: int, seed: int, tolerance: float
+    generate: Callable[[int], Scene],
+    n_scenes: int,
+    seed: int,
+    tolerance: float,
+    camera: Collection[str] = (),
 ) -> dict[str, dict[str, float]]:
     """Every method on scenes ``seed .. seed + n_scenes - 1`` of one regime: mean scores,
-    and ``ms``, the mean time of one look."""
+    and ``ms``, the mean time of one look; with ``camera`` effects, each scene and look as
+    ``through_camera`` delivers it."""
     table = methods()
     sums = {name: dict.fromkeys((*SCORES, "ms"), 0.0) for name in table}
     for i in range(n_scenes):
@@ -204,6 +222,9 @@ def run_regime(
         tol = scaled_tolerance(scene.image.shape[:2], tolerance)
         gt = truth(scene, tol)
         looks = second_looks(scene)
+        if camera:  # the noise is the sensor's, before the camera's JPEG
+            scene = through_camera(scene, camera)
+            looks = tuple(through_camera(look, camera) for look in looks)
         for name, method in table.items():
             t0 = time.perf_counter()
             points = method(scene, np.random.default_rng(seed + i))
@@ -222,17 +243,24 @@ def run(
     seed: int = 0,
     tolerance: float = 6.0,
     regimes: Sequence[str] | None = None,
+    camera: Collection[str] = (),
 ) -> dict[str, dict[str, dict[str, float]]]:
     """{regime: {method: scores}} for the named regimes (all by default), in that order.
 
     ``tolerance`` is the hit distance on a 216x288 mosaic; it scales with each scene's
-    diagonal. Each regime gets the same seeds; its generator keeps them apart.
+    diagonal. Each regime gets the same seeds; its generator keeps them apart. With
+    ``camera`` effects, every scene goes through ``through_camera``.
     """
+    unknown_effects = sorted(set(camera) - set(CAMERA_EFFECTS))
+    if unknown_effects:
+        raise ValueError(
+            f"unknown camera effects {unknown_effects}; choose from {', '.join(CAMERA_EFFECTS)}"
+        )
     names = list(REGIMES) if regimes is None else list(regimes)
     unknown = [n for n in names if n not in REGIMES]
     if unknown:
         raise ValueError(f"unknown regimes {unknown}; choose from {list(REGIMES)}")
-    return {name: run_regime(REGIMES[name], n_scenes, seed, tolerance) for name in names}
+    return {name: run_regime(REGIMES[name], n_scenes, seed, tolerance, camera) for name in names}
 
 
 def verdict(regime: str, results: dict[str, dict[str, float]]) -> str:
@@ -259,15 +287,22 @@ def verdict(regime: str, results: dict[str, dict[str, float]]) -> str:
     return f"{regime:6s} default: {', '.join(parts)}; {how} every baseline: {won}"
 
 
-def seed_case(n_cliffs: int = 100, seed: int = 0, params: VisionParams = PAPER) -> dict:
+def seed_case(
+    n_cliffs: int = 100,
+    seed: int = 0,
+    params: VisionParams = PAPER,
+    camera: Collection[str] = (),
+) -> dict:
     """The ``paper`` profile on the seed's own case (``seed_cliff`` without its ledge
     shadow): how often the two wet stains are the top two points, and how much of each plane
-    is left unsegmented (mean, and the worst cliff). With the shadow too, for comparison."""
+    is left unsegmented (mean, and the worst cliff). With the shadow too, for comparison;
+    with ``camera`` effects, each cliff as ``through_camera`` delivers it."""
     out: dict = {}
     for shadow in (False, True):
         both, unsegmented = 0, []
         for i in range(n_cliffs):
             scene = seed_cliff(seed + i, shadow=shadow)
+            scene = through_camera(scene, camera) if camera else scene
             bgr, res = analyze_image(scene.image, params)
             unsegmented.append([float((s.labels == 0).mean()) for s in res.segmentations])
             gt = truth(scene, scaled_tolerance(scene.image.shape[:2], 6.0))
@@ -316,11 +351,21 @@ def main(argv: list[str] | None = None) -> int:
         "--tolerance", type=float, default=6.0, help="hit distance in pixels at 216x288"
     )
     ap.add_argument("--cliffs", type=int, default=100, help="seed-case cliffs for paper (0: skip)")
+    ap.add_argument(
+        "--camera",
+        nargs="?",
+        const=",".join(CAMERA_EFFECTS),
+        default="",
+        metavar="EFFECTS",
+        help="scenes through an ordinary camera: comma list of "
+        f"{', '.join(CAMERA_EFFECTS)} (all when given bare)",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     names = [n.strip() for n in args.regimes.split(",") if n.strip()]
+    camera = tuple(e.strip() for e in args.camera.split(",") if e.strip())
     try:
-        results = run(args.scenes, args.seed, args.tolerance, names)
+        results = run(args.scenes, args.seed, args.tolerance, names, camera)
     except ValueError as exc:
         ap.error(str(exc))
     if args.json:
@@ -331,6 +376,12 @@ def main(argv: list[str] | None = None) -> int:
         f"quality: {args.scenes} scenes per regime, seeds {args.seed}..{last}, hit tolerance "
         f"{args.tolerance:g} px at 216x288, scaled with the image diagonal"
     )
+    if camera:
+        lo, hi = JPEG_QUALITY
+        print(
+            f"through a camera: {', '.join(camera)} (JPEG quality {lo}-{hi}; "
+            "daemon.regimes.through_camera)"
+        )
     for name, table in results.items():
         rows, cols = REGIMES[name](args.seed).image.shape[:2]
         tol = scaled_tolerance((rows, cols), args.tolerance)
@@ -346,7 +397,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{method:18s}{cells}{r['ms']:9.2f}")
     if args.cliffs:
         print()
-        print_seed_case(seed_case(args.cliffs, args.seed), args.cliffs)
+        print_seed_case(seed_case(args.cliffs, args.seed, camera=camera), args.cliffs)
     goals = ", ".join(f"{LABELS[k]} >= {100 * v:g}%" for k, v in GOALS.items())
     print(f"\nverdicts (goals {goals}; empty: repeat@1 only):")
     for name, table in results.items():

@@ -14,6 +14,9 @@ detectors, and ``bench/quality.py`` reports them separately:
   among 2-4 ledge shadows: rare and thin, where the shadows are long and thick;
 * ``empty``: beds and 2-4 ledge shadows, no target: where does the best point go then?
 
+:func:`through_camera` shows any of them as an ordinary camera delivers a frame
+(vignetting, a light gradient, slight defocus, JPEG), for ``bench/quality.py --camera``.
+
 Every scene keeps the quasi-mosaic look (butted tiles with their own exposure, sensor
 noise) and fills ``targets``, ``target_labels`` and ``shadow_mask`` (the decoys). Targets are
 placed first and decoys kept clear of them, so a point is never on both. Bed rendering,
@@ -23,7 +26,8 @@ a chosen palette, returning their texture) is :func:`_beds`, used by every regim
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import dataclasses
+from collections.abc import Callable, Collection
 
 import cv2
 import numpy as np
@@ -40,13 +44,16 @@ from daemon.scene import (
 )
 
 __all__ = [
+    "CAMERA_EFFECTS",
     "DESCRIPTIONS",
+    "JPEG_QUALITY",
     "LARGE_KINDS",
     "REGIMES",
     "VEIN_KINDS",
     "empty_scene",
     "large_scene",
     "seed_cliff",
+    "through_camera",
     "vein_scene",
 ]
 
@@ -454,6 +461,70 @@ def empty_scene(seed: int) -> Scene:
     ((), 0, True)
     """
     return outcrop_scene(seed, n_targets=0)
+
+
+CAMERA_EFFECTS = ("vignetting", "gradient", "defocus", "jpeg")
+"""What :func:`through_camera` can do to a scene, in the order it does it."""
+JPEG_QUALITY = (60, 90)
+"""The JPEG quality range of :func:`through_camera`: a phone's or a rover's frames, not a
+lossless archive."""
+
+
+def through_camera(scene: Scene, effects: Collection[str] = CAMERA_EFFECTS) -> Scene:
+    """``scene`` as an ordinary camera delivers it: vignetting (15-35 % darker in the
+    corners), a light gradient across the view (10-25 % over half the diagonal, any
+    direction), slight defocus (Gaussian sigma 0.5-1.2 px) and JPEG at quality 60-90
+    (chroma subsampled 4:2:0, as OpenCV writes it); ``effects`` names which. The scenes are
+    otherwise rendered perfectly; a detector tuned on them alone may lean on what no real
+    camera keeps.
+
+    The camera is drawn from the scene's seed, whatever the effects, so two noisy looks at
+    one scene go through the same camera and one effect alone is the one of the whole
+    camera. Targets, labels and decoys are unchanged.
+
+    Examples
+    --------
+    >>> s = empty_scene(0)
+    >>> c = through_camera(s)
+    >>> c.image.shape == s.image.shape, c.image.dtype.name, bool((c.image != s.image).any())
+    (True, 'uint8', True)
+    >>> bool((through_camera(s).image == c.image).all())   # deterministic by seed
+    True
+    >>> bool((through_camera(s, ()).image == s.image).all())
+    True
+    >>> through_camera(s, ("fisheye",))
+    Traceback (most recent call last):
+    ...
+    ValueError: unknown camera effects ['fisheye']; choose from vignetting, gradient, defocus, jpeg
+    """
+    unknown = sorted(set(effects) - set(CAMERA_EFFECTS))
+    if unknown:
+        raise ValueError(
+            f"unknown camera effects {unknown}; choose from {', '.join(CAMERA_EFFECTS)}"
+        )
+    rng = np.random.default_rng([scene.seed, 4])
+    corner = rng.uniform(0.15, 0.35)
+    angle, slope = rng.uniform(0.0, 2.0 * np.pi), rng.uniform(0.10, 0.25)
+    sigma = rng.uniform(0.5, 1.2)
+    quality = int(rng.integers(JPEG_QUALITY[0], JPEG_QUALITY[1] + 1))
+    img = scene.image.astype(np.float32)
+    rows, cols = img.shape[:2]
+    yy, xx = np.mgrid[0:rows, 0:cols].astype(np.float32)
+    dx, dy = xx - (cols - 1) / 2.0, yy - (rows - 1) / 2.0
+    half_diagonal = 0.5 * float(np.hypot(rows, cols))
+    if "vignetting" in effects:
+        img *= (1.0 - corner * (dx * dx + dy * dy) / half_diagonal**2)[..., None]
+    if "gradient" in effects:
+        img *= (1.0 + slope * (dx * np.cos(angle) + dy * np.sin(angle)) / half_diagonal)[..., None]
+    if "defocus" in effects:
+        img = cv2.GaussianBlur(img, (0, 0), sigma)
+    out = np.clip(img, 0, 255).astype(np.uint8)
+    if "jpeg" in effects:
+        ok, buf = cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, quality])
+        if not ok:  # pragma: no cover - OpenCV always encodes a uint8 BGR array
+            raise RuntimeError("JPEG encoding failed")
+        out = cv2.imdecode(buf, cv2.IMREAD_COLOR)
+    return dataclasses.replace(scene, image=out)
 
 
 REGIMES: dict[str, Callable[[int], Scene]] = {

@@ -57,6 +57,26 @@ def test_quality_cli_runs_chosen_regimes_and_prints_a_verdict_each(capsys):
         quality.main(["--regimes", "nope", "--scenes", "1"])
 
 
+def test_quality_cli_through_a_camera_says_so_and_scores_the_same_way(capsys):
+    assert quality.main(["--regimes", "tiny", "--scenes", "2", "--cliffs", "0", "--camera"]) == 0
+    out = capsys.readouterr().out
+    assert "through a camera: vignetting, gradient, defocus, jpeg (JPEG quality 60-90" in out
+    assert out.splitlines()[-1].startswith("tiny   default:")
+    assert (
+        quality.main(["--regimes", "empty", "--scenes", "1", "--cliffs", "0", "--camera", "jpeg"])
+        == 0
+    )
+    assert "through a camera: jpeg (" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        quality.main(["--regimes", "empty", "--scenes", "1", "--camera", "fisheye"])
+    assert "unknown camera effects ['fisheye']" in capsys.readouterr().err
+    clean = quality.run(n_scenes=2, seed=0, tolerance=6.0, regimes=["tiny"])["tiny"]
+    seen = quality.run(2, 0, 6.0, ["tiny"], camera=("defocus", "jpeg"))["tiny"]
+    assert set(seen) == set(clean)
+    # The random baseline ignores the image: the camera cannot move its points.
+    assert seen["random"]["top1"] == clean["random"]["top1"]
+
+
 def test_quality_distinct3_counts_objects_hit_twice_not_points():
     labels = np.zeros((60, 80), np.uint8)
     labels[10:14, 10:14] = 1

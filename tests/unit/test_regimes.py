@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from daemon.regimes import LARGE_KINDS, REGIMES, VEIN_KINDS, seed_cliff
+from daemon.regimes import LARGE_KINDS, REGIMES, VEIN_KINDS, seed_cliff, through_camera
 from daemon.scene import Scene
 
 SEEDS = range(8)
@@ -93,3 +93,41 @@ def test_empty_has_decoys_but_no_target():
         scene = REGIMES["empty"](s)
         assert scene.targets == () and not scene.target_labels.any()
         assert scene.shadow_mask.any()
+
+
+def test_through_camera_vignettes_blurs_and_compresses_a_flat_scene_keeping_its_labels():
+    flat = np.full((120, 160, 3), 150, np.uint8)
+    labels = np.zeros((120, 160), np.uint8)
+    labels[50:60, 70:80] = 1
+    scene = Scene(flat, (), labels, np.zeros((120, 160), bool), 3)
+    seen = through_camera(scene)
+    grey = seen.image.astype(np.float32).mean(axis=2)
+    corners = np.mean(
+        [grey[:8, :8].mean(), grey[:8, -8:].mean(), grey[-8:, :8].mean(), grey[-8:, -8:].mean()]
+    )
+    assert corners < 0.9 * grey[56:64, 76:84].mean()  # the corners are darker than the centre
+    assert seen.image.dtype == np.uint8 and seen.image.shape == flat.shape
+    assert seen.target_labels is labels and seen.seed == 3 and seen.shadow_mask is scene.shadow_mask
+    assert (through_camera(scene).image == seen.image).all()  # one camera per seed
+    # The same scene under another seed is seen through another camera.
+    other = through_camera(Scene(flat, (), labels, scene.shadow_mask, 4)).image
+    assert (other != seen.image).any()
+
+
+def test_through_camera_loses_fine_colour_detail_before_fine_brightness_detail():
+    """JPEG keeps colour at half resolution and quantises it harder: a 2-px checkerboard of
+    two colours of one brightness fades far more than one of two greys (blur alone would
+    fade both alike)."""
+    yy, xx = np.mgrid[:64, :64]
+    on = (yy // 2 + xx // 2) % 2 == 0
+    kept = []
+    for bright, dark in (((190, 190, 190), (90, 90, 90)), ((200, 110, 110), (40, 110, 171))):
+        img = np.empty((64, 64, 3), np.uint8)
+        img[on], img[~on] = bright, dark
+        scene = Scene(img, (), np.zeros((64, 64), np.uint8), np.zeros((64, 64), bool), 0)
+        seen = through_camera(scene).image[16:48, 16:48].astype(np.float32)
+        centre = on[16:48, 16:48]
+        contrast = np.abs(seen[centre].mean(axis=0) - seen[~centre].mean(axis=0)).max()
+        kept.append(contrast / np.abs(np.subtract(bright, dark)).max())
+    grey, colour = kept
+    assert grey > 0.05 and colour < 0.5 * grey
