@@ -33,9 +33,11 @@ bench: bench-quality bench-camera bench-real bench-approach bench-speed bench-pt
 bench-quality: $(STAMP)
 	$(PY) -m bench.quality --scenes 120
 
-# The same scenes as an ordinary camera delivers them (vignetting, gradient, defocus, JPEG).
+# The same scenes as an ordinary camera delivers them (vignetting, gradient, defocus, JPEG),
+# its frame the analysed size, then twice it (as the rig's mosaics are).
 bench-camera: $(STAMP)
 	$(PY) -m bench.quality --scenes 120 --camera
+	$(PY) -m bench.quality --scenes 120 --camera --camera-scale 2
 
 # Real labelled images from ../shared/data/real (or env CYBORG_REAL_DATA); says so if absent.
 bench-real: $(STAMP)

@@ -32,10 +32,13 @@ share of the view. Scores per regime and method, averaged over scenes:
 With ``--camera`` every scene and look goes through an ordinary camera first
 (``daemon.regimes.through_camera``: vignetting, a light gradient, slight defocus, JPEG at
 quality 60-90; sensor noise before the JPEG, as in a camera): the regimes are rendered
-perfectly, and a detector tuned on them alone may lean on what no real camera keeps.
+perfectly, and a detector tuned on them alone may lean on what no real camera keeps. The
+camera's frame is the analysed size (JPEG's 8-px blocks and half-resolution colour at their
+worst) unless ``--camera-scale K`` makes it K times finer, as the rig's mosaics and a phone's
+photos are before they are reduced to the working size.
 
 Usage: ``python -m bench.quality [--regimes tiny,seed,...] [--scenes 120] [--seed 0]
-[--camera [vignetting,gradient,defocus,jpeg]] [--json]``.
+[--camera [vignetting,gradient,defocus,jpeg]] [--camera-scale K] [--json]``.
 """
 
 from __future__ import annotations
@@ -210,11 +213,13 @@ def run_regime(
     n_scenes: int,
     seed: int,
     tolerance: float,
+    *,
     camera: Collection[str] = (),
+    camera_scale: float = 1.0,
 ) -> dict[str, dict[str, float]]:
     """Every method on scenes ``seed .. seed + n_scenes - 1`` of one regime: mean scores,
     and ``ms``, the mean time of one look; with ``camera`` effects, each scene and look as
-    ``through_camera`` delivers it."""
+    ``through_camera`` delivers it (a frame ``camera_scale`` times the analysed size)."""
     table = methods()
     sums = {name: dict.fromkeys((*SCORES, "ms"), 0.0) for name in table}
     for i in range(n_scenes):
@@ -223,8 +228,8 @@ def run_regime(
         gt = truth(scene, tol)
         looks = second_looks(scene)
         if camera:  # the noise is the sensor's, before the camera's JPEG
-            scene = through_camera(scene, camera)
-            looks = tuple(through_camera(look, camera) for look in looks)
+            scene = through_camera(scene, camera, camera_scale)
+            looks = tuple(through_camera(look, camera, camera_scale) for look in looks)
         for name, method in table.items():
             t0 = time.perf_counter()
             points = method(scene, np.random.default_rng(seed + i))
@@ -243,7 +248,9 @@ def run(
     seed: int = 0,
     tolerance: float = 6.0,
     regimes: Sequence[str] | None = None,
+    *,
     camera: Collection[str] = (),
+    camera_scale: float = 1.0,
 ) -> dict[str, dict[str, dict[str, float]]]:
     """{regime: {method: scores}} for the named regimes (all by default), in that order.
 
@@ -256,7 +263,12 @@ def run(
     unknown = [n for n in names if n not in REGIMES]
     if unknown:
         raise ValueError(f"unknown regimes {unknown}; choose from {list(REGIMES)}")
-    return {name: run_regime(REGIMES[name], n_scenes, seed, tolerance, camera) for name in names}
+    return {
+        name: run_regime(
+            REGIMES[name], n_scenes, seed, tolerance, camera=camera, camera_scale=camera_scale
+        )
+        for name in names
+    }
 
 
 def verdict(regime: str, results: dict[str, dict[str, float]]) -> str:
@@ -288,6 +300,7 @@ def seed_case(
     seed: int = 0,
     params: VisionParams = PAPER,
     camera: Collection[str] = (),
+    camera_scale: float = 1.0,
 ) -> dict:
     """The ``paper`` profile on the seed's own case (``seed_cliff`` without its ledge
     shadow): how often the two wet stains are the top two points, and how much of each plane
@@ -298,7 +311,7 @@ def seed_case(
         both, unsegmented = 0, []
         for i in range(n_cliffs):
             scene = seed_cliff(seed + i, shadow=shadow)
-            scene = through_camera(scene, camera) if camera else scene
+            scene = through_camera(scene, camera, camera_scale) if camera else scene
             bgr, res = analyze_image(scene.image, params)
             unsegmented.append([float((s.labels == 0).mean()) for s in res.segmentations])
             gt = truth(scene, scaled_tolerance(scene.image.shape[:2], 6.0))
@@ -356,12 +369,28 @@ def main(argv: list[str] | None = None) -> int:
         help="scenes through an ordinary camera: comma list of "
         f"{', '.join(CAMERA_EFFECTS)} (all when given bare)",
     )
+    ap.add_argument(
+        "--camera-scale",
+        type=float,
+        default=1.0,
+        metavar="K",
+        help="the camera's frame is K times the analysed size on a side (default 1)",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     names = [n.strip() for n in args.regimes.split(",") if n.strip()]
     camera = tuple(e.strip() for e in args.camera.split(",") if e.strip())
+    if args.camera_scale != 1.0 and not camera:
+        ap.error("--camera-scale needs --camera")
     try:
-        results = run(args.scenes, args.seed, args.tolerance, names, camera)
+        results = run(
+            args.scenes,
+            args.seed,
+            args.tolerance,
+            names,
+            camera=camera,
+            camera_scale=args.camera_scale,
+        )
     except ValueError as exc:
         ap.error(str(exc))
     if args.json:
@@ -375,8 +404,8 @@ def main(argv: list[str] | None = None) -> int:
     if camera:
         lo, hi = JPEG_QUALITY
         print(
-            f"through a camera: {', '.join(camera)} (JPEG quality {lo}-{hi}; "
-            "daemon.regimes.through_camera)"
+            f"through a camera: {', '.join(camera)} (JPEG quality {lo}-{hi}; frame "
+            f"{args.camera_scale:g}x the analysed size; daemon.regimes.through_camera)"
         )
     for name, table in results.items():
         rows, cols = REGIMES[name](args.seed).image.shape[:2]
@@ -393,7 +422,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{method:18s}{cells}{r['ms']:9.2f}")
     if args.cliffs:
         print()
-        print_seed_case(seed_case(args.cliffs, args.seed, camera=camera), args.cliffs)
+        case = seed_case(args.cliffs, args.seed, camera=camera, camera_scale=args.camera_scale)
+        print_seed_case(case, args.cliffs)
     goals = ", ".join(f"{LABELS[k]} >= {100 * v:g}%" for k, v in GOALS.items())
     print(f"\nverdicts (goals {goals}; empty: repeat@1 only):")
     for name, table in results.items():

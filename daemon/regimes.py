@@ -470,7 +470,9 @@ JPEG_QUALITY = (60, 90)
 lossless archive."""
 
 
-def through_camera(scene: Scene, effects: Collection[str] = CAMERA_EFFECTS) -> Scene:
+def through_camera(
+    scene: Scene, effects: Collection[str] = CAMERA_EFFECTS, scale: float = 1.0
+) -> Scene:
     """``scene`` as an ordinary camera delivers it: vignetting (15-35 % darker in the
     corners), a light gradient across the view (10-25 % over half the diagonal, any
     direction), slight defocus (Gaussian sigma 0.5-1.2 px) and JPEG at quality 60-90
@@ -481,6 +483,12 @@ def through_camera(scene: Scene, effects: Collection[str] = CAMERA_EFFECTS) -> S
     The camera is drawn from the scene's seed, whatever the effects, so two noisy looks at
     one scene go through the same camera and one effect alone is the one of the whole
     camera. Targets, labels and decoys are unchanged.
+
+    ``scale`` > 1 is a camera whose frame is that many times finer on a side than what is
+    analysed, as the rig's mosaics and a phone's photos are (``products.analyze_image``
+    reduces them to its working size): the scene is rendered up (cubic), goes through the
+    camera there (defocus in the camera's pixels) and is reduced back by area averaging.
+    JPEG's blocks and its half-resolution colour then shrink by ``scale`` too.
 
     Examples
     --------
@@ -496,18 +504,28 @@ def through_camera(scene: Scene, effects: Collection[str] = CAMERA_EFFECTS) -> S
     Traceback (most recent call last):
     ...
     ValueError: unknown camera effects ['fisheye']; choose from vignetting, gradient, defocus, jpeg
+    >>> through_camera(s, ("jpeg",), scale=2.0).image.shape == s.image.shape
+    True
     """
     unknown = sorted(set(effects) - set(CAMERA_EFFECTS))
     if unknown:
         raise ValueError(
             f"unknown camera effects {unknown}; choose from {', '.join(CAMERA_EFFECTS)}"
         )
+    if not scale >= 1.0:  # also refuses NaN
+        raise ValueError(
+            f"a camera's scale is >= 1 (its frame over the analysed size), got {scale}"
+        )
     rng = np.random.default_rng([scene.seed, 4])
     corner = rng.uniform(0.15, 0.35)
     angle, slope = rng.uniform(0.0, 2.0 * np.pi), rng.uniform(0.10, 0.25)
     sigma = rng.uniform(0.5, 1.2)
     quality = int(rng.integers(JPEG_QUALITY[0], JPEG_QUALITY[1] + 1))
+    rows, cols = scene.image.shape[:2]
     img = scene.image.astype(np.float32)
+    if scale > 1.0 and effects:
+        size = (round(cols * scale), round(rows * scale))
+        img = cv2.resize(img, size, interpolation=cv2.INTER_CUBIC)
     rows, cols = img.shape[:2]
     yy, xx = np.mgrid[0:rows, 0:cols].astype(np.float32)
     dx, dy = xx - (cols - 1) / 2.0, yy - (rows - 1) / 2.0
@@ -524,6 +542,8 @@ def through_camera(scene: Scene, effects: Collection[str] = CAMERA_EFFECTS) -> S
         if not ok:  # pragma: no cover - OpenCV always encodes a uint8 BGR array
             raise RuntimeError("JPEG encoding failed")
         out = cv2.imdecode(buf, cv2.IMREAD_COLOR)
+    if out.shape != scene.image.shape:
+        out = cv2.resize(out, scene.image.shape[1::-1], interpolation=cv2.INTER_AREA)
     return dataclasses.replace(scene, image=out)
 
 

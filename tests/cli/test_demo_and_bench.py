@@ -67,6 +67,15 @@ def test_quality_cli_through_a_camera_says_so_and_scores_the_same_way(capsys):
         == 0
     )
     assert "through a camera: jpeg (" in capsys.readouterr().out
+    args = ["--regimes", "empty", "--scenes", "1", "--cliffs", "0", "--camera", "jpeg"]
+    assert quality.main([*args, "--camera-scale", "2"]) == 0
+    assert "frame 2x the analysed size" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        quality.main(["--regimes", "empty", "--scenes", "1", "--camera-scale", "2"])
+    assert "--camera-scale needs --camera" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        quality.main(["--regimes", "empty", "--scenes", "1", "--camera", "--camera-scale", "0.5"])
+    assert "a camera's scale is >= 1" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         quality.main(["--regimes", "empty", "--scenes", "1", "--camera", "fisheye"])
     assert "unknown camera effects ['fisheye']" in capsys.readouterr().err
