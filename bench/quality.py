@@ -62,6 +62,7 @@ from bench.baselines import (
     rx_anomaly,
     spectral_residual,
 )
+from bench.stats import wilson
 from daemon.products import analyze_image, input_points
 from daemon.regimes import (
     CAMERA_EFFECTS,
@@ -271,17 +272,24 @@ def run(
     }
 
 
-def verdict(regime: str, results: dict[str, dict[str, float]]) -> str:
+def verdict(regime: str, results: dict[str, dict[str, float]], n_scenes: int) -> str:
     """One line: does ``default`` meet the issue's goals here, and beat every baseline?
 
-    Outside ``empty``, beating means strictly higher top-1, any-of-3 and prec@3 than each
-    baseline; in ``empty``, no higher decoy@1 and decoy@3 (fewer looks wasted on shadows).
+    Each goal's figure comes with its 95 % interval over ``n_scenes`` scenes
+    (``stats.wilson``): ok / NO judge the figure itself, the interval says how far other
+    scenes of the kind could move it. Outside ``empty``, beating means strictly higher top-1,
+    any-of-3 and prec@3 than each baseline; in ``empty``, no higher decoy@1 and decoy@3
+    (fewer looks wasted on shadows).
     """
     best = results["default"]
     goals = ("repeat1",) if regime == "empty" else tuple(GOALS)
-    parts = [
-        f"{LABELS[k]} {100 * best[k]:.1f}% {'ok' if best[k] >= GOALS[k] else 'NO'}" for k in goals
-    ]
+    parts = []
+    for k in goals:
+        lo, hi = wilson(best[k], n_scenes)
+        parts.append(
+            f"{LABELS[k]} {100 * best[k]:.1f}% [{100 * lo:.0f}-{100 * hi:.0f}] "
+            + ("ok" if best[k] >= GOALS[k] else "NO")
+        )
     if regime == "empty":
         keys, better, how = ("decoy1", "shadow3"), (lambda a, b: a <= b), "no more decoys than"
     else:
@@ -340,9 +348,11 @@ def print_seed_case(case: dict, n_cliffs: int) -> None:
         c = case[key]
         means = "/".join(f"{100 * v:.1f}" for v in c["unsegmented_mean"].values())
         worst = "/".join(f"{100 * v:.0f}" for v in c["unsegmented_max"].values())
+        lo, hi = wilson(c["stains_top2"], n_cliffs)
         line = (
             f"paper, {label}, {n_cliffs} cliffs: both stains top two "
-            f"{100 * c['stains_top2']:.0f} %; unsegmented H/S/I mean {means} %, "
+            f"{100 * c['stains_top2']:.0f} % [{100 * lo:.0f}-{100 * hi:.0f}]; "
+            f"unsegmented H/S/I mean {means} %, "
             f"worst cliff {worst} %"
         )
         if key == "seed_case":
@@ -425,9 +435,9 @@ def main(argv: list[str] | None = None) -> int:
         case = seed_case(args.cliffs, args.seed, camera=camera, camera_scale=args.camera_scale)
         print_seed_case(case, args.cliffs)
     goals = ", ".join(f"{LABELS[k]} >= {100 * v:g}%" for k, v in GOALS.items())
-    print(f"\nverdicts (goals {goals}; empty: repeat@1 only):")
+    print(f"\nverdicts (goals {goals}; empty: repeat@1 only; [95 % interval]):")
     for name, table in results.items():
-        print(verdict(name, table))
+        print(verdict(name, table, args.scenes))
     return 0
 
 

@@ -58,6 +58,7 @@ from bench.baselines import (
     rx_anomaly,
     spectral_residual,
 )
+from bench.stats import wilson
 from daemon.imageio import ImageError, as_bgr8, read_image
 from daemon.products import analyze_image, input_points
 from daemon.vision.interest import InterestPoint
@@ -376,13 +377,15 @@ def format_table(results: dict[str, Any]) -> list[str]:
         def pts(d: float) -> str:
             return f"{100 * d:+.1f} pts"
 
+        lo, hi = wilson(v["repeat1"], n)  # its 95 % interval over the pooled images
         lines.append("")
         lines.append(
             f"verdict: default vs best baseline, pooled top1 {pts(p['top1']['diff'])} "
             f"(vs {p['top1']['best_baseline']}), any3 {pts(p['any3']['diff'])} "
             f"(vs {p['any3']['best_baseline']}); worst set {w['set']} {w['rate']} "
             f"{pts(w['diff'])} (vs {w['best_baseline']}); pooled repeat@1 "
-            f"{100 * v['repeat1']:.1f}%. Goals: pooled margins >= +10 pts "
+            f"{100 * v['repeat1']:.1f}% [{100 * lo:.0f}-{100 * hi:.0f}]. "
+            "Goals: pooled margins >= +10 pts "
             f"{'met' if met['pooled_margin'] else 'NOT met'}, no set below -5 pts "
             f"{'met' if met['set_deficit'] else 'NOT met'}, repeat@1 >= 90% "
             f"{'met' if met['repeat1'] else 'NOT met'}"

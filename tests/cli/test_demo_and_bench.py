@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import cv2
 import numpy as np
@@ -53,6 +54,9 @@ def test_quality_cli_runs_chosen_regimes_and_prints_a_verdict_each(capsys):
     out = capsys.readouterr().out
     assert "108x192, tolerance 3.7 px" in out and "paper, seed case, 2 cliffs" in out
     assert [line.split()[0] for line in out.splitlines()[-2:]] == ["seed", "empty"]
+    # One scene says little, and the verdict's 95 % interval says so.
+    assert re.search(r"repeat@1 (100\.0% \[21-100\]|0\.0% \[0-79\]) (ok|NO);", out)
+    assert re.search(r"both stains top two \d+ % \[\d+-\d+\]", out)
     with pytest.raises(SystemExit):
         quality.main(["--regimes", "nope", "--scenes", "1"])
 
@@ -207,7 +211,8 @@ def test_real_benchmark_smoke_on_the_real_data():
         for row in group["rates"].values():
             assert all(0.0 <= row[k] <= 1.0 for k in ("top1", "any3", "p3", "repeat1"))
     assert real.verdict(results) is not None
-    assert any(line.startswith("verdict:") for line in real.format_table(results))
+    verdict = [line for line in real.format_table(results) if line.startswith("verdict:")]
+    assert len(verdict) == 1 and re.search(r"pooled repeat@1 [\d.]+% \[\d+-\d+\]", verdict[0])
 
 
 def test_speed_benchmark_smoke():
