@@ -257,8 +257,8 @@ def run(
 
     ``tolerance`` is the hit distance on a 216x288 mosaic; it scales with each scene's
     diagonal. Each regime gets the same seeds; its generator keeps them apart. With
-    ``camera`` effects, every scene goes through ``through_camera`` (which refuses an
-    unknown effect).
+    ``camera`` effects, every scene goes through ``through_camera`` with a frame
+    ``camera_scale`` times the analysed size (it refuses an unknown effect or a scale < 1).
     """
     names = list(REGIMES) if regimes is None else list(regimes)
     unknown = [n for n in names if n not in REGIMES]
@@ -307,6 +307,7 @@ def seed_case(
     n_cliffs: int = 100,
     seed: int = 0,
     params: VisionParams = PAPER,
+    *,
     camera: Collection[str] = (),
     camera_scale: float = 1.0,
 ) -> dict:
