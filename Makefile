@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo rig test bench bench-quality bench-camera bench-real bench-approach bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security lint clean
+.PHONY: demo rig test bench bench-quality bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security lint clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -28,7 +28,7 @@ test: $(STAMP)
 	$(PY) -m ruff check .
 	$(PY) -m pytest -q
 
-bench: bench-quality bench-camera bench-real bench-approach bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security
+bench: bench-quality bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security
 
 bench-quality: $(STAMP)
 	$(PY) -m bench.quality --scenes 120
@@ -42,6 +42,10 @@ bench-camera: $(STAMP)
 # Real labelled images from ../shared/data/real (or env CYBORG_REAL_DATA); says so if absent.
 bench-real: $(STAMP)
 	$(PY) -m bench.real
+
+# The same, each repeat look saved as a camera's JPEG (quality 75) after its sensor noise.
+bench-real-jpeg: $(STAMP)
+	$(PY) -m bench.real --jpeg 75
 
 # 30 simulated 300 -> 60 -> 10 m approaches on procedural worlds, memory on and off.
 bench-approach: $(STAMP)

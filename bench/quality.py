@@ -62,7 +62,7 @@ from bench.baselines import (
     rx_anomaly,
     spectral_residual,
 )
-from bench.stats import wilson
+from bench.stats import repeats, wilson
 from daemon.products import analyze_image, input_points
 from daemon.regimes import (
     CAMERA_EFFECTS,
@@ -200,13 +200,6 @@ def second_looks(scene: Scene, sigma: float = 2.0) -> tuple[Scene, Scene]:
         noisy = scene.image + rng.normal(0.0, sigma, scene.image.shape)
         looks.append(dataclasses.replace(scene, image=np.clip(noisy, 0, 255).astype(np.uint8)))
     return looks[0], looks[1]
-
-
-def repeats(first: list[InterestPoint], second: list[InterestPoint], tolerance: float) -> bool:
-    """Both looks have a best point and they lie within ``tolerance`` of each other."""
-    if not first or not second:
-        return False
-    return math.hypot(first[0].x - second[0].x, first[0].y - second[0].y) <= tolerance
 
 
 def run_regime(

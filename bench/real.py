@@ -13,7 +13,11 @@ Scoring, as the data's README states it. Each method returns its top 3 points, b
   point is a miss);
 * repeat@1: two more looks with Gaussian sensor noise (sigma 2 on 8-bit values, rounded and
   clipped; grey stays 1-channel), drawn from a generator seeded by crc32("set/name") so every
-  method sees the same looks; the two best points must lie within 3 % of the diagonal;
+  method sees the same looks; the two best points must lie within 3 % of the diagonal.
+  With ``--jpeg Q`` each noisy look is then saved as a JPEG at quality Q and decoded, as a
+  camera delivers its frames (noise first, then the JPEG's 8-px blocks and half-resolution
+  colour): the field's repeat, where two looks differ in whole blocks. The clean look, and
+  so every hit rate, is the image as stored;
 * chance: what a uniform random point scores, the mean dilated-mask area (top1, p@3) and
   the mean of 1 - (1 - area)^3 (any3);
 * ms: median milliseconds per image (the clean look, from decoded image to points).
@@ -28,7 +32,8 @@ own peak picker with blur sigma and separation = 1.5 % of the diagonal (about th
 radius), so they are not handicapped by settings made for 216x288 scenes; the spectral
 residual map keeps only its own smoothing, as in ``bench.quality``.
 
-Usage: ``python -m bench.real [--data DIR] [--sets a,b] [--limit N] [--methods a,b] [--json]``.
+Usage: ``python -m bench.real [--data DIR] [--sets a,b] [--limit N] [--methods a,b]
+[--jpeg Q] [--json]``.
 The data folder defaults to $CYBORG_REAL_DATA, else ``shared/data/real`` beside the repo; when
 it is absent the benchmark says so in one line and exits 0.
 """
@@ -58,9 +63,10 @@ from bench.baselines import (
     rx_anomaly,
     spectral_residual,
 )
-from bench.stats import wilson
+from bench.stats import repeats, wilson
 from daemon.imageio import ImageError, as_bgr8, read_image
 from daemon.products import analyze_image, input_points
+from daemon.regimes import jpeg_quality, jpeg_round_trip
 from daemon.vision.interest import InterestPoint
 from daemon.vision.params import DEFAULT, PAPER, UNCOMMON, VisionParams
 
@@ -143,21 +149,16 @@ def score(flags: list[bool]) -> dict[str, float]:
     }
 
 
-def looks(image: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Two noisy looks at the same image, the same for every method."""
+def looks(image: np.ndarray, seed: int, jpeg: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Two noisy looks at the same image, the same for every method; with ``jpeg``, each
+    through a JPEG at that quality after its noise, as a camera saves a frame."""
     rng = np.random.default_rng([seed, 2])
     out = []
     for _ in range(2):
-        noisy = np.rint(image + rng.normal(0.0, NOISE_SIGMA, image.shape))
-        out.append(np.clip(noisy, 0, 255).astype(np.uint8))
+        noisy = np.clip(np.rint(image + rng.normal(0.0, NOISE_SIGMA, image.shape)), 0, 255)
+        look = noisy.astype(np.uint8)
+        out.append(look if jpeg is None else jpeg_round_trip(look, jpeg))
     return out[0], out[1]
-
-
-def repeats(first: list[InterestPoint], second: list[InterestPoint], tolerance: float) -> bool:
-    """Both looks have a best point and they lie within ``tolerance`` of each other."""
-    if not first or not second:
-        return False
-    return math.hypot(first[0].x - second[0].x, first[0].y - second[0].y) <= tolerance
 
 
 @dataclass
@@ -187,9 +188,16 @@ def read_manifest(folder: Path) -> list[tuple[str, str]]:
 
 
 def score_image(
-    folder: Path, name: str, tag: str, table: dict[str, Method], extra: list[str]
+    folder: Path,
+    name: str,
+    tag: str,
+    table: dict[str, Method],
+    extra: list[str],
+    *,
+    jpeg: int | None = None,
 ) -> Record:
-    """Run every method on one image (clean look + two noisy looks) and score it."""
+    """Run every method on one image (clean look + two noisy looks, through a JPEG at
+    quality ``jpeg`` if given) and score it."""
     image = read_image(folder / "images" / name)
     masks = {"": read_image(folder / "masks" / name)}
     for kind in extra:
@@ -201,7 +209,7 @@ def score_image(
             masks[kind] = mask.max(axis=2)
     near = {kind: near_mask(mask) for kind, mask in masks.items()}
     seed = zlib.crc32(f"{folder.name}/{name}".encode())
-    noisy = looks(image, seed)
+    noisy = looks(image, seed, jpeg)
     rec = Record(folder.name, name, tag, {k: float(v.mean()) for k, v in near.items()})
     tolerance = REPEAT_SHARE * diagonal(image.shape)
     for mname, method in table.items():
@@ -236,15 +244,20 @@ def run(
     sets: Sequence[str] | None = None,
     limit: int | None = None,
     methods: Sequence[str] | None = None,
+    *,
     progress: bool = False,
+    jpeg: int | None = None,
 ) -> dict[str, Any]:
     """Score the chosen methods on the chosen sets; returns per-group and pooled rates.
+    ``jpeg``: the repeat looks go through a JPEG at this quality (1..100).
 
     Groups, in order: each set, then its tag subsets (``marsdata/Rock-A``) and extra masks
     (``cwfid-weed``); ``pooled`` last, over every image of every set against its main mask.
     Images that fail to load are listed under ``failed`` and left out.
     """
     data_dir = Path(data_dir)
+    if jpeg is not None:
+        jpeg_quality(jpeg)
     table = _choose(methods)
     names = list(table)
     available = list_sets(data_dir)
@@ -264,7 +277,7 @@ def run(
             if progress and i % 50 == 0:
                 print(f"real: {set_name} {i}/{len(entries)}", file=sys.stderr, flush=True)
             try:
-                records.append(score_image(folder, name, tag, table, extra))
+                records.append(score_image(folder, name, tag, table, extra, jpeg=jpeg))
             except ImageError as exc:
                 failed.append(str(exc))
                 print(f"real: skipped: {exc}", file=sys.stderr)
@@ -284,6 +297,7 @@ def run(
         "data": str(data_dir),
         "sets": [s for s in chosen if s in groups],
         "methods": names,
+        "jpeg": jpeg,
         "groups": groups,
         "failed": failed,
     }
@@ -351,6 +365,7 @@ def format_table(results: dict[str, Any]) -> list[str]:
     lines = [
         f"real: {n} images in {len(results['sets'])} sets from {results['data']}; hit within "
         f"{100 * HIT_SHARE:g}% of the diagonal, repeat within {100 * REPEAT_SHARE:g}%"
+        + (f"; repeat looks through JPEG quality {results['jpeg']}" if results.get("jpeg") else "")
     ]
     head = ("method", "top1", "any3", "p@3", "repeat@1", "ms")
     for gname, g in groups.items():
@@ -393,12 +408,23 @@ def format_table(results: dict[str, Any]) -> list[str]:
     return lines
 
 
+def _quality(text: str) -> int:
+    """argparse type of ``--jpeg``: refused before any data is looked for."""
+    try:
+        return jpeg_quality(int(text))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=None, help="data folder (default: see above)")
     ap.add_argument("--sets", default="", help="comma list of sets (default: all)")
     ap.add_argument("--limit", type=int, default=None, help="first N images per set")
     ap.add_argument("--methods", default="", help="comma list of methods (default: all)")
+    ap.add_argument(
+        "--jpeg", type=_quality, default=None, metavar="Q", help="repeat looks through JPEG at Q"
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     data = args.data or default_data_dir()
@@ -409,7 +435,9 @@ def main(argv: list[str] | None = None) -> int:
     chosen = [m.strip() for m in args.methods.split(",") if m.strip()]
     t0 = time.perf_counter()
     try:
-        results = run(data, split or None, args.limit, chosen or None, progress=True)
+        results = run(
+            data, split or None, args.limit, chosen or None, progress=True, jpeg=args.jpeg
+        )
     except ValueError as exc:
         ap.error(str(exc))
     results["wall_s"] = round(time.perf_counter() - t0, 1)

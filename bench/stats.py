@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import math
 import statistics
+from collections.abc import Sequence
+
+from daemon.vision.interest import InterestPoint
 
 
 def latency(samples: list[float]) -> dict[str, float]:
@@ -38,3 +41,18 @@ def wilson(rate: float, n: int, z: float = 1.96) -> tuple[float, float]:
     centre = (rate + z2n / 2.0) / (1.0 + z2n)
     half = z * math.sqrt(rate * (1.0 - rate) / n + z2n / (4.0 * n)) / (1.0 + z2n)
     return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def repeats(
+    first: Sequence[InterestPoint], second: Sequence[InterestPoint], tolerance: float
+) -> bool:
+    """Both looks have a best point and they lie within ``tolerance`` of each other: will a
+    second look at the same ground send the rover to the same place? (repeat@1)
+
+    >>> P = InterestPoint
+    >>> repeats([P(1, 10.0, 10.0, 1.0)], [P(1, 13.0, 14.0, 1.0)], 5.0), repeats([], [], 5.0)
+    (True, False)
+    """
+    if not first or not second:
+        return False
+    return math.hypot(first[0].x - second[0].x, first[0].y - second[0].y) <= tolerance

@@ -51,6 +51,8 @@ __all__ = [
     "REGIMES",
     "VEIN_KINDS",
     "empty_scene",
+    "jpeg_quality",
+    "jpeg_round_trip",
     "large_scene",
     "seed_cliff",
     "through_camera",
@@ -470,6 +472,34 @@ JPEG_QUALITY = (60, 90)
 lossless archive."""
 
 
+def jpeg_quality(quality: int) -> int:
+    """``quality`` if it is a JPEG quality (1..100), else ValueError (OpenCV would clamp it
+    silently)."""
+    if not 1 <= quality <= 100:
+        raise ValueError(f"JPEG quality is 1..100, got {quality}")
+    return int(quality)
+
+
+def jpeg_round_trip(image: np.ndarray, quality: int) -> np.ndarray:
+    """``image`` (uint8, grey or BGR) as a camera's JPEG at ``quality`` delivers it, decoded
+    again: 8-px blocks and, in colour, chroma at half resolution (4:2:0, as OpenCV writes
+    it). Grey stays grey.
+
+    >>> grey = np.tile(np.arange(64, dtype=np.uint8), (16, 1))
+    >>> out = jpeg_round_trip(grey, 60)
+    >>> out.shape, out.dtype.name, 0 < int(np.abs(out.astype(int) - grey).max()) < 16
+    ((16, 64), 'uint8', True)
+    >>> jpeg_round_trip(grey, 0)
+    Traceback (most recent call last):
+    ...
+    ValueError: JPEG quality is 1..100, got 0
+    """
+    ok, buf = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality(quality)])
+    if not ok:  # pragma: no cover - OpenCV always encodes a uint8 grey or BGR array
+        raise RuntimeError("JPEG encoding failed")
+    return cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)
+
+
 def through_camera(
     scene: Scene, effects: Collection[str] = CAMERA_EFFECTS, scale: float = 1.0
 ) -> Scene:
@@ -538,10 +568,7 @@ def through_camera(
         img = cv2.GaussianBlur(img, (0, 0), sigma)
     out = np.clip(img, 0, 255).astype(np.uint8)
     if "jpeg" in effects:
-        ok, buf = cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, quality])
-        if not ok:  # pragma: no cover - OpenCV always encodes a uint8 BGR array
-            raise RuntimeError("JPEG encoding failed")
-        out = cv2.imdecode(buf, cv2.IMREAD_COLOR)
+        out = jpeg_round_trip(out, quality)
     if out.shape != scene.image.shape:
         out = cv2.resize(out, scene.image.shape[1::-1], interpolation=cv2.INTER_AREA)
     return dataclasses.replace(scene, image=out)

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from bench import approach, browser, bus, operator, ptu, quality, real, security, speed, survey
+from bench.stats import repeats
 from daemon.demo import run_demo
 from daemon.scene import Scene, Target, outcrop_scene
 from daemon.vision.interest import InterestPoint
@@ -127,9 +128,9 @@ def test_second_looks_are_fresh_but_reproducible_and_repeats_compares_best_point
     # Fresh noise, not a new scene: the looks stay close to the original.
     assert np.abs(first.image.astype(int) - scene.image).mean() < 3.0
     here, there = InterestPoint(1, 10.0, 10.0, 1.0), InterestPoint(1, 30.0, 10.0, 1.0)
-    assert quality.repeats([here], [InterestPoint(1, 13.0, 14.0, 0.5), there], 6.0)
-    assert not quality.repeats([here], [there, here], 6.0)
-    assert not quality.repeats([], [here], 6.0)
+    assert repeats([here], [InterestPoint(1, 13.0, 14.0, 0.5), there], 6.0)
+    assert not repeats([here], [there, here], 6.0)
+    assert not repeats([], [here], 6.0)
 
 
 def _toy_set(root, names=("a.png", "b.png")):
@@ -191,6 +192,28 @@ def test_real_benchmark_hit_rule_on_a_synthetic_mask(tmp_path):
         assert {k: v for k, v in first.items() if k != "ms"} == {
             k: v for k, v in second.items() if k != "ms"
         }
+
+
+def test_real_benchmark_jpeg_looks_are_a_cameras_frames_and_bad_quality_is_refused(
+    tmp_path, capsys
+):
+    folder = _toy_set(tmp_path)
+    grey = cv2.imread(str(folder / "images" / "a.png"), cv2.IMREAD_UNCHANGED)
+    plain, jpeg = real.looks(grey, 7), real.looks(grey, 7, 60)
+    for a, b in zip(plain, jpeg, strict=True):
+        # Same noise, then the JPEG: grey stays grey, close to the noisy look, not equal.
+        assert b.shape == a.shape == grey.shape and b.dtype == np.uint8
+        assert 0 < np.abs(b.astype(int) - a).mean() < 4
+    assert all((x == y).all() for x, y in zip(jpeg, real.looks(grey, 7, 60), strict=True))
+    results = real.run(tmp_path, methods=["colour-rarity"], jpeg=60)
+    assert results["jpeg"] == 60 and results["groups"]["toy"]["rates"]["colour-rarity"]["top1"] == 1
+    assert "repeat looks through JPEG quality 60" in real.format_table(results)[0]
+    with pytest.raises(ValueError, match=r"1\.\.100, got 101"):
+        real.run(tmp_path, methods=["colour-rarity"], jpeg=101)
+    # Refused before the data are looked for, with the reason.
+    with pytest.raises(SystemExit):
+        real.main(["--data", str(tmp_path / "nowhere"), "--jpeg", "0"])
+    assert "JPEG quality is 1..100, got 0" in capsys.readouterr().err
 
 
 def test_real_benchmark_says_so_when_the_data_are_absent(tmp_path, capsys):
