@@ -10,7 +10,19 @@ import cv2
 import numpy as np
 import pytest
 
-from bench import approach, browser, bus, operator, ptu, quality, real, security, speed, survey
+from bench import (
+    approach,
+    browser,
+    bus,
+    heldout,
+    operator,
+    ptu,
+    quality,
+    real,
+    security,
+    speed,
+    survey,
+)
 from bench.stats import repeats
 from daemon.demo import run_demo
 from daemon.scene import Scene, Target, outcrop_scene
@@ -60,6 +72,21 @@ def test_quality_cli_runs_chosen_regimes_and_prints_a_verdict_each(capsys):
     assert re.search(r"both stains top two \d+ % \[\d+-\d+\]", out)
     with pytest.raises(SystemExit):
         quality.main(["--regimes", "nope", "--scenes", "1"])
+
+
+def test_quality_cli_scores_the_held_out_generator_without_a_seed_case(capsys):
+    assert quality.main(["--heldout", "--regimes", "empty,veins", "--scenes", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "held-out generator (bench.heldout): reported, never tuned on" in out
+    assert "empty: held out: rock and ledge shadows, no target; 216x288" in out
+    assert "paper, seed case" not in out  # the seed's cliff is ours alone
+    assert [line.split()[0] for line in out.splitlines()[-2:]] == ["empty", "veins"]
+    with pytest.raises(SystemExit):
+        quality.main(["--heldout", "--regimes", "seed", "--scenes", "1"])
+    assert "unknown regimes ['seed']" in capsys.readouterr().err
+    ours = quality.run(1, 3, 6.0, ["empty"])["empty"]["default"]
+    held = quality.run(1, 3, 6.0, ["empty"], generators=heldout.REGIMES)["empty"]["default"]
+    assert set(ours) == set(held)
 
 
 def test_quality_cli_through_a_camera_says_so_and_scores_the_same_way(capsys):

@@ -1,0 +1,66 @@
+"""The held-out generator (``bench.heldout``): the same regimes as ours, drawn apart."""
+
+import cv2
+import numpy as np
+import pytest
+
+from bench.heldout import DESCRIPTIONS, REGIMES
+from daemon.regimes import REGIMES as OURS
+
+SEEDS = range(12)
+
+
+def test_regimes_are_ours_but_the_seed_case_and_each_is_described():
+    assert list(REGIMES) == [name for name in OURS if name != "seed"]
+    assert set(DESCRIPTIONS) == set(REGIMES)
+
+
+@pytest.mark.parametrize("name", list(REGIMES))
+def test_deterministic_by_seed_and_labels_match_targets(name):
+    gen = REGIMES[name]
+    a, b, c = gen(5), gen(5), gen(6)
+    assert np.array_equal(a.image, b.image) and a.targets == b.targets
+    assert np.array_equal(a.shadow_mask, b.shadow_mask)
+    assert not np.array_equal(a.image, c.image)
+    for scene in (a, c):
+        assert scene.image.shape == (216, 288, 3) and scene.image.dtype == np.uint8
+        assert sorted(np.unique(scene.target_labels)) == list(range(len(scene.targets) + 1))
+        assert scene.shadow_mask.any()  # every regime has its decoys
+
+
+@pytest.mark.parametrize("name", ["tiny", "large", "veins"])
+def test_every_scene_has_a_target_clear_of_shadows_and_of_the_frame(name):
+    clear = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (9, 9))
+    for s in SEEDS:
+        scene = REGIMES[name](s)
+        assert 1 <= len(scene.targets) <= (2 if name != "tiny" else 3)
+        near = cv2.dilate((scene.target_labels > 0).astype(np.uint8), clear).astype(bool)
+        assert not (near & scene.shadow_mask).any()
+        ys, xs = np.nonzero(scene.target_labels)
+        assert ys.min() > 0 and xs.min() > 0 and ys.max() < 215 and xs.max() < 287
+
+
+def test_sizes_are_the_regimes_own():
+    area = 216 * 288
+    for s in SEEDS:
+        tiny = REGIMES["tiny"](s)
+        for i, t in enumerate(tiny.targets, start=1):
+            assert 3 <= t.radius <= 9 and (tiny.target_labels == i).sum() < 300
+        large = REGIMES["large"](s)
+        for i in range(1, len(large.targets) + 1):
+            assert 0.05 <= (large.target_labels == i).sum() / area <= 0.15
+        veins = REGIMES["veins"](s)
+        for i, t in enumerate(veins.targets, start=1):
+            pixels = (veins.target_labels == i).sum()
+            assert 15 <= t.radius <= 65 and pixels / (2 * t.radius) < 4  # long and thin
+
+
+def test_empty_has_shadows_and_nothing_else():
+    for s in SEEDS:
+        scene = REGIMES["empty"](s)
+        assert scene.targets == () and not scene.target_labels.any()
+        # A shadow is darker than the rock just above it (a ledge casts it downwards).
+        rows, cols = np.nonzero(scene.shadow_mask)
+        grey = scene.image.astype(np.float32).mean(axis=2)
+        above = np.clip(rows - 14, 0, None)
+        assert grey[rows, cols].mean() < 0.8 * grey[above, cols].mean()
