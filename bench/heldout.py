@@ -79,14 +79,9 @@ def _strata(rng: np.random.Generator) -> tuple[np.ndarray, list[np.ndarray]]:
     n = int(rng.integers(3, 8))
     fold = rng.uniform(2, 10) * np.sin(2 * np.pi * xs / rng.uniform(120, 400) + rng.uniform(0, 7))
     dip = rng.uniform(-0.1, 0.1) * (xs - cols / 2)
-    fault_x, throw = (
-        (rng.uniform(40, cols - 40), rng.uniform(5, 20))
-        if rng.random() < 0.3
-        else (
-            cols + 1.0,
-            0.0,
-        )
-    )
+    fault_x, throw = cols + 1.0, 0.0  # no fault
+    if rng.random() < 0.3:
+        fault_x, throw = rng.uniform(40, cols - 40), rng.uniform(5, 20)
     tops = np.sort(rng.uniform(0, rows, n - 1))
     contacts = []
     for top in tops:
@@ -118,10 +113,8 @@ def _strata(rng: np.random.Generator) -> tuple[np.ndarray, list[np.ndarray]]:
     return img * (shade * light)[..., None], contacts
 
 
-def _shadows(
-    rng: np.random.Generator, img: np.ndarray, contacts: list[np.ndarray], keep_clear: np.ndarray
-) -> np.ndarray:
-    """Ledge shadows under 2-4 contacts (or anywhere, when there are few contacts)."""
+def _shadows(rng: np.random.Generator, img: np.ndarray, contacts: list[np.ndarray]) -> np.ndarray:
+    """Ledge shadows hanging from 2-4 contacts (there are always at least two)."""
     rows, cols = SHAPE
     mask = np.zeros(SHAPE, bool)
     yy = np.arange(rows, dtype=np.float32)[:, None]
@@ -130,12 +123,11 @@ def _shadows(
             length = rng.uniform(40, 160)
             x0 = rng.uniform(0, cols - length)
             xs = np.arange(int(x0), int(x0 + length))
-            line = contacts[int(rng.integers(len(contacts)))] if contacts else None
-            top = line[xs] if line is not None else np.full(len(xs), rng.uniform(10, rows - 20))
+            top = contacts[int(rng.integers(len(contacts)))][xs]
             thick = rng.uniform(4, 12) * np.clip(np.sin(np.pi * (xs - x0) / length), 0, 1) ** 0.7
             m = np.zeros(SHAPE, bool)
             m[:, xs] = (yy >= top[None, :]) & (yy < (top + thick)[None, :])
-            if m.sum() > 30 and not (m & keep_clear).any():
+            if m.sum() > 30:
                 mask |= m
                 break
     img[mask] *= _shade(rng)
@@ -189,15 +181,10 @@ def _vein(rng: np.random.Generator) -> np.ndarray | None:
     return _fine(lambda c: cv2.polylines(c, [fine], False, 255, width, cv2.LINE_8, 4))
 
 
-def _paint(img: np.ndarray, cover: np.ndarray, colour: np.ndarray) -> None:
-    a = cover[..., None]
-    img[:] = img * (1 - a) + colour * a
-
-
-def _tint(img: np.ndarray, cover: np.ndarray, kind: str, rng: np.random.Generator) -> None:
-    """Paint one target of ``kind`` where ``cover`` says, keeping the rock's grain under it."""
-    m = cover > 0
-    host = img[m].mean(axis=0) if m.any() else np.full(3, 128.0, np.float32)
+def _paint(img: np.ndarray, cover: np.ndarray, kind: str, rng: np.random.Generator) -> None:
+    """Paint one target of ``kind`` where ``cover`` says, keeping the rock's grain under it;
+    nodules, varnish, bleaching and cracks take their colour from the rock they are on."""
+    host = img[cover > 0].mean(axis=0)
     grain = img / np.maximum(cv2.GaussianBlur(img, (0, 0), 3), 1)
     mottle = 1 + 0.12 * _octaves(rng, SHAPE, 2.0)[..., None]
     hsv = cv2.cvtColor(
@@ -251,7 +238,7 @@ def _place(
                 continue
             if (cv2.dilate(m.astype(np.uint8), clear).astype(bool) & (shadow | (labels > 0))).any():
                 continue
-            _tint(img, cover, kind, rng)
+            _paint(img, cover, kind, rng)
             labels[m] = len(targets) + 1
             targets.append(Target(kind, float(xs.mean()), float(ys.mean()), radius(m)))
             break
@@ -274,7 +261,7 @@ def _scene(
     """One scene: strata, shadows, then the targets ``kinds_fn`` names, drawn by ``draw_fn``."""
     rng = np.random.default_rng([seed, 7919, regime])
     img, contacts = _strata(rng)
-    shadow = _shadows(rng, img, contacts, np.zeros(SHAPE, bool))
+    shadow = _shadows(rng, img, contacts)
     kinds = kinds_fn(rng)
     targets, labels = _place(rng, img, kinds, lambda: draw_fn(rng), shadow=shadow, radius=radius_fn)
     return Scene(_finish(rng, img), targets, labels, shadow, seed)
