@@ -11,21 +11,12 @@ SEEDS = range(12)
 
 
 def test_regimes_are_ours_but_the_seed_case_and_each_is_described():
+    # Determinism and labels: tests/unit/test_regimes.py, for both generators.
     assert list(REGIMES) == [name for name in OURS if name != "seed"]
     assert set(DESCRIPTIONS) == set(REGIMES)
-
-
-@pytest.mark.parametrize("name", list(REGIMES))
-def test_deterministic_by_seed_and_labels_match_targets(name):
-    gen = REGIMES[name]
-    a, b, c = gen(5), gen(5), gen(6)
-    assert np.array_equal(a.image, b.image) and a.targets == b.targets
-    assert np.array_equal(a.shadow_mask, b.shadow_mask)
-    assert not np.array_equal(a.image, c.image)
-    for scene in (a, c):
-        assert scene.image.shape == (216, 288, 3) and scene.image.dtype == np.uint8
-        assert sorted(np.unique(scene.target_labels)) == list(range(len(scene.targets) + 1))
-        assert scene.shadow_mask.any()  # every regime has its decoys
+    for gen in REGIMES.values():
+        scene = gen(3)
+        assert scene.image.shape == (216, 288, 3) and scene.shadow_mask.any()
 
 
 @pytest.mark.parametrize("name", ["tiny", "large", "veins"])

@@ -6,6 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
+from bench.heldout import REGIMES as HELDOUT
 from daemon.regimes import LARGE_KINDS, REGIMES, VEIN_KINDS, seed_cliff, through_camera
 from daemon.scene import Scene
 
@@ -25,9 +26,12 @@ def test_regimes_are_named_in_report_order():
     assert list(REGIMES) == ["tiny", "seed", "large", "veins", "empty"]
 
 
-@pytest.mark.parametrize("name", list(REGIMES))
-def test_regime_is_deterministic_by_seed_and_labels_match_targets(name):
-    gen = REGIMES[name]
+@pytest.mark.parametrize(
+    "gen",
+    [*REGIMES.values(), *HELDOUT.values()],
+    ids=[*REGIMES, *(f"heldout-{name}" for name in HELDOUT)],
+)
+def test_regime_is_deterministic_by_seed_and_labels_match_targets(gen):
     a, b, c = gen(5), gen(5), gen(6)
     assert np.array_equal(a.image, b.image) and a.targets == b.targets
     assert np.array_equal(a.target_labels, b.target_labels)
