@@ -67,6 +67,7 @@ def _hsv(h_deg: float, s: float, v: float) -> np.ndarray:
 
 
 def _rock_colour(rng: np.random.Generator) -> np.ndarray:
+    """One bed's BGR colour."""
     if rng.random() < 0.8:  # earthy: buff, tan, brown, red-brown, grey
         return _hsv(rng.uniform(8, 45), rng.uniform(0.08, 0.45), rng.uniform(0.35, 0.85))
     return _hsv(rng.uniform(150, 220), rng.uniform(0.05, 0.2), rng.uniform(0.35, 0.7))
@@ -268,10 +269,12 @@ def _scene(
 
 
 def _disc_radius(m: np.ndarray) -> float:
+    """A blob's size: the radius of a disc of its area."""
     return math.sqrt(float(m.sum()) / math.pi)
 
 
 def _length_radius(m: np.ndarray) -> float:
+    """A vein's size: half its extent, as ``daemon.regimes`` gives a vein's radius."""
     ys, xs = np.nonzero(m)
     return 0.5 * math.hypot(float(np.ptp(xs)), float(np.ptp(ys)))
 
