@@ -113,6 +113,20 @@ class VisionParams:
     fused_isotropy: float = 0.0
     """``isotropy`` applied once more to the fused map (texture rarity has none of its own)."""
 
+    # Line rarity (``lines``): veins and cracks, not bed contacts
+    line_weight: float = 0.0
+    """Weight of line rarity, added after roundness (a vein is a line, and roundness is what
+    keeps lines down): its blurred map is 0 at its median and 1 at its 99.5th percentile, or
+    at ``interest.NO_LINE`` where the view holds no line that strong. 0: off."""
+    line_width: float = 1.0
+    """Half-width (analysed pixels) of the lines looked for: a line up to about 2 x 1 + 1 = 3
+    px wide is a bar against the rock 3 px to either side; a ledge shadow's thicker body is
+    not."""
+    line_length: float = 4.0
+    """Half-length (analysed pixels) of the segment a line is averaged along. Up to 4 each
+    orientation's kernel fits 9 x 9, which OpenCV applies directly (a few ms for all eight at
+    the working size); 6 px (13 x 13) took four times as long for two vein scenes in 60 more."""
+
     # Shadow gate (``shadow``): the seed's "structural shadow"
     shadow_gate: float = 0.0
     """Share of a pixel's uncommon and texture interest taken away by its shadow likelihood
@@ -195,6 +209,8 @@ class VisionParams:
             raise ValueError("texture_surround must exceed the largest texture scale")
         if not 0 <= self.texture_trim < 1:
             raise ValueError("texture_trim must be in [0, 1)")
+        if self.line_weight < 0 or self.line_width <= 0 or self.line_length < 1:
+            raise ValueError("line_weight >= 0, line_width > 0, line_length >= 1")
         if not 0 <= self.shadow_gate <= 1 or self.shadow_surround <= 0:
             raise ValueError("shadow_gate must be in [0, 1]; shadow_surround > 0")
         if len(self.shadow_tint) != 2 or not 0 < math.hypot(*self.shadow_tint) < math.inf:
@@ -288,6 +304,7 @@ DEFAULT = UNCOMMON.replace(
     frame=1.0,
     presmooth=0.7,
     layers=0.5,
+    line_weight=1.0,
 )
 """``uncommon`` plus texture rarity (``texture``), the shadow gate (``shadow``), the layer
 discount (``layers``: a bed across the view counts at half its rarity), the discounts on bands

@@ -13,6 +13,7 @@ from .explain import clauses, explain_points, plain_lines
 from .hsi import HSIPlanes, hue_histogram_rotation, rgb_to_hsi
 from .interest import InterestMap, InterestPoint, find_points, interest_map, summed_uncommon
 from .layers import discount_texture, discount_uncommon, layer_share
+from .lines import line_rarity, line_shade
 from .params import VisionParams
 from .shadow import shadow_likelihood
 from .texture import texture_rarity
@@ -100,21 +101,34 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
     rarity = texture = texture_rarity(bgr, params) if params.texture_weight > 0 else None
     if rarity is not None and shares is not None:
         rarity = texture = discount_texture(rarity, shares, params.layers)
+    bars = line_rarity(bgr, params) if params.line_weight > 0 else None
+    line = None if bars is None else cv2.multiply(bars, bars)
     shade = shadow_likelihood(bgr, params) if params.shadow_gate > 0 else None
     if shade is not None:
         # Shade is judged on the image, before any blur: the gate keeps a shadow's rarity
         # out of the interest while the maps and the explanations keep it.
-        lit = 1.0 - np.float32(params.shadow_gate) * shade
+        gate = np.float32(params.shadow_gate)
+        lit = 1.0 - gate * shade
         total = cv2.multiply(total, lit)
         texture = None if texture is None else cv2.multiply(texture, lit)
+        if line is not None:  # a line along a shadow is the shadow's rim or its thin end
+            line = cv2.multiply(line, 1.0 - gate * line_shade(line, shade))
     if prior is not None:
         prior = _fit_prior(prior, bgr.shape[:2])
-    imap = interest_map(segs, params, total, texture, prior)
+    imap = interest_map(segs, params, total, texture, prior=prior, line=line)
     points = find_points(imap, params)
     t3 = time.perf_counter()
     timings["interest"] = (t3 - t2) * 1e3
     explanations = explain_points(
-        points, segs, params, maps, texture=rarity, shade=shade, layers=shares
+        points,
+        segs,
+        params,
+        maps,
+        texture=rarity,
+        shade=shade,
+        layers=shares,
+        bars=bars,
+        line=line,
     )
     descriptions = [
         line + clauses(expl)

@@ -41,7 +41,7 @@ def test_odd_coloured_blob_is_the_top_point(rng, params, size):
     assert scores == sorted(scores, reverse=True)
     planes = [e["plane"] for e in res.explanations[0]]
     extra = ["texture"] * bool(params.texture_weight) + ["shade"] * bool(params.shadow_gate)
-    extra += ["layer"] * bool(params.layers)
+    extra += ["layer"] * bool(params.layers) + ["line"] * bool(params.line_weight)
     assert planes == ["H", "S", "I", *extra]
     contributions = {e["plane"]: e["contribution"] for e in res.explanations[0][:3]}
     assert max(contributions.values()) > 0
