@@ -12,12 +12,11 @@ from __future__ import annotations
 
 import math
 
-import cv2
 import numpy as np
 
 from .cooccurrence import Segmentation
 from .hsi import HSIPlanes
-from .interest import NO_LINE, InterestPoint, unit_scale
+from .interest import InterestMap, InterestPoint
 from .params import VisionParams
 from .uncommon import uncommon_map
 
@@ -140,7 +139,7 @@ def explain_points(
     shade: np.ndarray | None = None,
     layers: list[np.ndarray] | None = None,
     bars: np.ndarray | None = None,
-    line: np.ndarray | None = None,
+    interest: InterestMap | None = None,
 ) -> list[list[dict]]:
     """Say, for each point, which planes and classes made it interesting.
 
@@ -157,11 +156,11 @@ def explain_points(
     entry gives how much the point lies on a layer across the view: each plane's share,
     weighted likewise, averaged over the planes by their contributions (the classes that
     made the point rare were discounted by that much, ``VisionParams.layers``). With ``bars``
-    (``lines.line_rarity``, signed) and ``line`` (the line rarity the interest summed, shade
-    taken out) an entry gives the strongest bar within the point's window, in robust standard
-    deviations of the image's bar contrast (+ bright, - dark), and what the line term added
-    at the point before its weight, in the interest's units (0 at the image's median, 1 at
-    its 99.5th percentile or at ``interest.NO_LINE``).
+    (``lines.line_rarity``, signed) and the ``interest`` map they went into, an entry gives the
+    strongest bar within the point's window, in robust standard deviations of the image's bar
+    contrast (+ bright, - dark), and what the line term added at the point before its weight,
+    in the interest's units (0 at the image's median, 1 at its 99.5th percentile or at
+    ``interest._NO_LINE``).
     """
     if not points:
         return []
@@ -171,8 +170,6 @@ def explain_points(
         maps = [uncommon_map(seg, params) for seg in segs]
     step = max(1, math.isqrt(rows * cols // _SAMPLE))
     ranked = np.sort(texture[::step, ::step], axis=None) if texture is not None else None
-    if line is not None:  # in the interest's own units: what the line term added, unweighted
-        line = unit_scale(cv2.GaussianBlur(line, (0, 0), sigma), NO_LINE)
     out = []
     for point in points:
         box, kernel = _gaussian_window(point, sigma, (rows, cols))
@@ -213,10 +210,16 @@ def explain_points(
             shares = [float((plane[box] * kernel).sum()) for plane in layers]
             share = float(np.dot(weights, shares)) / sum(weights) if sum(weights) > 0 else 0.0
             planes.append({"plane": "layer", "share": round(share, 3)})
-        if bars is not None and line is not None:
+        added = None if interest is None else interest.lines
+        if bars is not None and added is not None:
             window = bars[box]
             strongest = float(window.ravel()[np.argmax(np.abs(window))])
-            units = float(line[min(round(point.y), rows - 1), min(round(point.x), cols - 1)])
+            f = interest.factor
+            cell = (
+                min(int(point.y) // f, added.shape[0] - 1),
+                min(int(point.x) // f, added.shape[1] - 1),
+            )
+            units = float(added[cell]) / params.line_weight
             planes.append(
                 {"plane": "line", "contrast": round(strongest, 2), "units": round(units, 3)}
             )
@@ -293,7 +296,7 @@ _LINE_UNITS = 0.5
 """A point is said to be on a thin line when the line term gave it at least half a unit of
 interest: grain and laminae make bars of 15-25 robust standard deviations in one pixel in a
 thousand of a view with nothing in it, so the strongest bar near a point says little alone,
-and such a view's line rarity never reaches half a unit (``interest.NO_LINE``)."""
+and such a view's line rarity never reaches half a unit (``interest._NO_LINE``)."""
 
 
 def _natural_value(plane: str, value: int) -> float:
@@ -318,4 +321,7 @@ def describe(explanation: list[dict]) -> str:
     if texture:
         rarity, share = texture[0]["rarity"], 100 * texture[0]["rarer_than"]
         summary += f"; texture rarity {rarity:.3g} (rarer than {share:.0f}% of image)"
+    line = [e for e in explanation if e["plane"] == "line"]
+    if line:
+        summary += f"; bar {line[0]['contrast']:+.3g} robust sd, line {line[0]['units']:.2f} unit"
     return summary

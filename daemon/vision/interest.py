@@ -56,6 +56,9 @@ class InterestMap:
     """The blurred interest before any roundness: which peaks are one target is judged on
     it. Roundness is a score, not an extent; on a wide flat patch it is noise, and its
     ripples split one lichen or one lens into several peaks."""
+    lines: np.ndarray | None = None
+    """What the line term added to ``grid`` (weighted), on the same grid: the explanations
+    read it at each point."""
 
     def full(self) -> np.ndarray:
         """The map at the analysed image's resolution, (M, N) float32."""
@@ -177,9 +180,11 @@ def interest_map(
         blurred = grid = fused
         if params.fused_isotropy > 0:
             grid = fused * _roundness(fused, sigma / f, params.fused_isotropy)
+    lines = None
     if line is not None and params.line_weight > 0:
-        lines = _blur(_reduce(line, f) - np.median(line[::step, ::step]), sigma, f)
-        lines = params.line_weight * unit_scale(lines, NO_LINE)
+        # Typical rock is on no line (its rarity is 0 at the median and below: ``lines``).
+        lines = _blur(_reduce(line, f), sigma, f)
+        lines = params.line_weight * _unit(lines, _NO_LINE)
         # The same lines on each map; maps that are one array stay one.
         same = (blurred is grid, plain is grid, plain is blurred)
         grid = grid + lines
@@ -193,6 +198,7 @@ def interest_map(
         (rows, cols),
         None if grid is blurred else blurred,
         None if plain is blurred else plain,
+        lines,
     )
 
 
@@ -202,10 +208,10 @@ def fuse(uncommon: np.ndarray, texture: np.ndarray, weight: float) -> np.ndarray
     the units (uncommon values; squared Mahalanobis distances). A texture spread under
     ``_NO_TEXTURE`` is rounding, not contrast, and is not stretched to 1."""
 
-    return cv2.scaleAdd(unit_scale(texture, _NO_TEXTURE), weight, unit_scale(uncommon, 1e-6))
+    return cv2.scaleAdd(_unit(texture, _NO_TEXTURE), weight, _unit(uncommon, 1e-6))
 
 
-def unit_scale(grid: np.ndarray, floor: float) -> np.ndarray:
+def _unit(grid: np.ndarray, floor: float) -> np.ndarray:
     """``grid`` with its median at 0 and its 99.5th percentile at 1, the spread between
     them taken as at least ``floor`` (less is no contrast worth a point)."""
     low, high = np.percentile(grid, (50.0, 99.5))
@@ -216,7 +222,7 @@ _NO_TEXTURE = 0.1
 """Squared robust standard deviations: blurred texture rarity that spreads less than this
 between its median and its 99.5th percentile has no contrast worth a point (a flat image
 gives ~1e-9 of float rounding)."""
-NO_LINE = 20.0
+_NO_LINE = 20.0
 """Squared robust standard deviations of bar contrast, blurred with sigma B: a view whose
 blurred line rarity spreads less than this between its median and its 99.5th percentile
 holds no line worth a whole unit of interest. At the 0.13 MP working size (sigma 4.3 px) that

@@ -117,7 +117,7 @@ class VisionParams:
     line_weight: float = 0.0
     """Weight of line rarity, added after roundness (a vein is a line, and roundness is what
     keeps lines down): its blurred map is 0 at its median and 1 at its 99.5th percentile, or
-    at ``interest.NO_LINE`` where the view holds no line that strong. 0: off."""
+    at ``interest._NO_LINE`` where the view holds no line that strong. 0: off."""
     line_width: float = 1.0
     """Half-width (analysed pixels) of the lines looked for: a line up to about 2 x 1 + 1 = 3
     px wide is a bar against the rock 3 px to either side; a ledge shadow's thicker body is

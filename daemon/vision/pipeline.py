@@ -128,7 +128,7 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
         shade=shade,
         layers=shares,
         bars=bars,
-        line=line,
+        interest=imap,
     )
     descriptions = [
         line + clauses(expl)

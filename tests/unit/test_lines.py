@@ -4,6 +4,7 @@ along a shadow is the shadow's; bad parameters refused."""
 import numpy as np
 import pytest
 
+from daemon.vision.explain import describe
 from daemon.vision.lines import line_rarity, line_shade
 from daemon.vision.params import DEFAULT, VisionParams
 from daemon.vision.pipeline import analyze
@@ -52,6 +53,7 @@ def test_the_vein_is_explained_as_a_thin_bright_line() -> None:
     (line,) = [e for e in res.explanations[0] if e["plane"] == "line"]
     assert line["contrast"] > 8 and line["units"] >= 0.5
     assert res.descriptions[0].endswith("; a thin bright line")
+    assert "; bar +" in describe(res.explanations[0])
 
 
 def test_grain_and_contacts_alone_are_not_called_lines() -> None:
