@@ -306,17 +306,18 @@ DEFAULT = UNCOMMON.replace(
     layers=0.5,
     line_weight=1.0,
 )
-"""``uncommon`` plus texture rarity (``texture``), the shadow gate (``shadow``), the layer
-discount (``layers``: a bed across the view counts at half its rarity), the discounts on bands
-and on patches hugging the frame (``interest``) and a light pre-smoothing of what is segmented
-(sensor noise flipped small classes in and out between looks): what the rig uses unless told
-otherwise. ``bench/real.py`` (347 real labelled images of five kinds), top-1 / any of 3 /
-repeat@1: 63.1 / 80.4 / 96.5 %, against 36.6 / 65.1 / 81.0 for ``uncommon`` and 37.2 / 57.1
-for the best baselines. ``bench/quality.py``: every goal met on tiny spots (top-1 95.8 %, any of
-3 99.2 %) and on the seed's cliff (top-1 100 %); veins 89.2 / 95.8 % (spectral residual 90.8 /
-99.2), large targets 86.7 / 96.7 %; repeat@1 91.7-98.3 % with a target, 89.2 % with none.
-About 2.8 times the time of ``uncommon`` (1.25-1.33 x the floor at 1 MP), still milliseconds at
-the working size."""
+"""``uncommon`` plus texture rarity (``texture``), line rarity (``lines``: veins and cracks, not
+bed contacts), the shadow gate (``shadow``), the layer discount (``layers``: a bed across the
+view counts at half its rarity), the discounts on bands and on patches hugging the frame
+(``interest``) and a light pre-smoothing of what is segmented (sensor noise flipped small
+classes in and out between looks): what the rig uses unless told otherwise. ``bench/real.py``
+(347 real labelled images of five kinds), top-1 / any of 3 / repeat@1: 64.6 / 81.6 / 95.4 %,
+against 36.6 / 65.1 / 81.0 for ``uncommon`` and 37.2 / 57.1 for the best baselines.
+``bench/quality.py``: every goal met on tiny spots (top-1 96.7 %, any of 3 99.2 %) and on the
+seed's cliff (top-1 100 %); veins 90.8 / 95.8 % (spectral residual 90.8 / 99.2), large targets
+85.8 / 96.7 %; repeat@1 90.0-99.2 % with a target, 85.8 % with none; on the held-out generator
+(``bench.quality --heldout``) veins 74.2 / 89.2 %. About 3.5 times the time of ``uncommon`` at
+its working size, still milliseconds."""
 
 PROFILES: dict[str, VisionParams] = {
     "paper": PAPER,
