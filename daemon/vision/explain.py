@@ -198,8 +198,7 @@ def explain_points(
                 )
             planes.append(entry)
         if texture is not None and params.texture_weight > 0:
-            rare = _rarity_entry(texture, point, sigma * params.texture_blur, ranked)
-            planes.append({"plane": "texture", **rare})
+            planes.append(_texture_entry(texture, point, sigma * params.texture_blur, ranked))
         if shade is not None:
             likelihood = float((shade[box] * kernel).sum())
             planes.append({"plane": "shade", "likelihood": round(likelihood, 3)})
@@ -241,15 +240,15 @@ def _gaussian_window(
     return (slice(r0, r1), slice(c0, c1)), kernel / kernel.sum()
 
 
-def _rarity_entry(
-    rarity: np.ndarray, point: InterestPoint, sigma: float, ranked: np.ndarray
+def _texture_entry(
+    texture: np.ndarray, point: InterestPoint, sigma: float, ranked: np.ndarray
 ) -> dict:
-    """A rarity map around ``point`` (Gaussian-weighted, sigma) and its rank among the
-    image's pixels (``ranked``: a sorted sample of the map)."""
-    box, kernel = _gaussian_window(point, sigma, rarity.shape)
-    around = float((rarity[box] * kernel).sum())
-    commoner = float(np.searchsorted(ranked, around)) / max(len(ranked), 1)
-    return {"rarity": round(around, 3), "rarer_than": round(commoner, 4)}
+    """The texture rarity around ``point`` (Gaussian-weighted, sigma) and its rank among
+    the image's pixels (``ranked``: a sorted sample of the rarity)."""
+    box, kernel = _gaussian_window(point, sigma, texture.shape)
+    rarity = float((texture[box] * kernel).sum())
+    commoner = float(np.searchsorted(ranked, rarity)) / max(len(ranked), 1)
+    return {"plane": "texture", "rarity": round(rarity, 3), "rarer_than": round(commoner, 4)}
 
 
 def clauses(explanation: list[dict]) -> str:
