@@ -102,7 +102,7 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
     if rarity is not None and shares is not None:
         rarity = texture = discount_texture(rarity, shares, params.layers)
     bars = line_rarity(bgr, params) if params.line_weight > 0 else None
-    line = None if bars is None else cv2.multiply(bars, bars)
+    lines = None if bars is None else cv2.multiply(bars, bars)
     shade = shadow_likelihood(bgr, params) if params.shadow_gate > 0 else None
     if shade is not None:
         # Shade is judged on the image, before any blur: the gate keeps a shadow's rarity
@@ -111,11 +111,11 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
         lit = 1.0 - gate * shade
         total = cv2.multiply(total, lit)
         texture = None if texture is None else cv2.multiply(texture, lit)
-        if line is not None:  # a line along a shadow is the shadow's rim or its thin end
-            line = cv2.multiply(line, 1.0 - gate * line_shade(line, shade))
+        if lines is not None:  # a line along a shadow is the shadow's rim or its thin end
+            lines = cv2.multiply(lines, 1.0 - gate * line_shade(lines, shade))
     if prior is not None:
         prior = _fit_prior(prior, bgr.shape[:2])
-    imap = interest_map(segs, params, total, texture, prior=prior, line=line)
+    imap = interest_map(segs, params, total, texture, prior=prior, line=lines)
     points = find_points(imap, params)
     t3 = time.perf_counter()
     timings["interest"] = (t3 - t2) * 1e3
