@@ -209,8 +209,11 @@ class VisionParams:
             raise ValueError("texture_surround must exceed the largest texture scale")
         if not 0 <= self.texture_trim < 1:
             raise ValueError("texture_trim must be in [0, 1)")
-        if self.line_weight < 0 or self.line_width <= 0 or self.line_length < 1:
-            raise ValueError("line_weight >= 0, line_width > 0, line_length >= 1")
+        line = (self.line_weight, self.line_width, self.line_length)
+        if not (all(map(math.isfinite, line)) and line[0] >= 0 and line[1] > 0 and line[2] >= 1):
+            raise ValueError(
+                f"need finite line_weight >= 0, line_width > 0, line_length >= 1: {line}"
+            )
         if not 0 <= self.shadow_gate <= 1 or self.shadow_surround <= 0:
             raise ValueError("shadow_gate must be in [0, 1]; shadow_surround > 0")
         if len(self.shadow_tint) != 2 or not 0 < math.hypot(*self.shadow_tint) < math.inf:

@@ -98,7 +98,16 @@ def test_flat_and_tiny_images_have_no_lines() -> None:
     assert line_rarity(np.zeros((1, 1, 3), np.uint8), DEFAULT).shape == (1, 1)
 
 
-@pytest.mark.parametrize("bad", [{"line_weight": -1.0}, {"line_width": 0.0}, {"line_length": 0.5}])
+@pytest.mark.parametrize(
+    "bad",
+    [
+        {"line_weight": -1.0},
+        {"line_weight": float("nan")},
+        {"line_width": 0.0},
+        {"line_width": float("inf")},
+        {"line_length": 0.5},
+    ],
+)
 def test_bad_line_parameters_are_refused(bad: dict) -> None:
     with pytest.raises(ValueError, match="line_"):
         VisionParams(**bad)
