@@ -51,7 +51,7 @@ def test_a_faint_vein_among_strong_contacts_is_the_top_point() -> None:
 def test_the_vein_is_explained_as_a_thin_bright_line() -> None:
     res = analyze(_bedded(0)[0], DEFAULT)
     (line,) = [e for e in res.explanations[0] if e["plane"] == "line"]
-    assert line["contrast"] > 8 and line["units"] >= 0.5
+    assert line["contrast"] > 8 and line["units"] >= 0.5 and line["share"] >= 0.2
     assert res.descriptions[0].endswith("; a thin bright line")
     assert "; bar +" in describe(res.explanations[0])
 
