@@ -274,6 +274,8 @@ def clauses(explanation: list[dict]) -> str:
     '; a thin dark line'
     >>> clauses([{"plane": "shade", "likelihood": 0.9}, line])
     '; probably in shade'
+    >>> clauses([dict(line, share=0.1)])          # a line nearby, not what made the point
+    ''
     """
     words = ""
     # A dark line in shade is the shadow's own rim or end, not a crack: shade says it.
