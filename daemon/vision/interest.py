@@ -18,9 +18,9 @@ patch, so beds, the skyline and slivers the frame cuts are discounted.
 
 Speed without approximation worth the name: a sigma-B blur removes everything above
 ~1/(2 pi B) cycles/px, so the sum map is first averaged over f x f blocks (f a power of two
-<= B / 1.5) and blurred with the residual sigma sqrt(B^2 - (f^2 - 1)/12) / f on the small
-grid. Peaks are found there and refined to sub-pixel positions; the full-resolution map is
-produced only when asked for (products). ``exact_blur=True`` turns this off.
+<= B / 1.5) and blurred on that small grid (``grid``). Peaks are found there and refined to
+sub-pixel positions; the full-resolution map is produced only when asked for (products).
+``exact_blur=True`` turns this off.
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ import cv2
 import numpy as np
 
 from .cooccurrence import Segmentation
+from .grid import block_means, expand, grid_blur
 from .params import VisionParams
 from .uncommon import uncommon_map
 
@@ -62,16 +63,7 @@ class InterestMap:
 
     def full(self) -> np.ndarray:
         """The map at the analysed image's resolution, (M, N) float32."""
-        if self.factor == 1:
-            return self.grid
-        rows, cols = self.shape
-        f = self.factor
-        # Grid cell j is centred on image pixel j f + (f - 1) / 2.
-        xs = (np.arange(cols, dtype=np.float32) - (f - 1) / 2.0) / f
-        ys = (np.arange(rows, dtype=np.float32) - (f - 1) / 2.0) / f
-        map_x = np.broadcast_to(xs, (rows, cols)).astype(np.float32)
-        map_y = np.broadcast_to(ys[:, None], (rows, cols)).astype(np.float32)
-        return cv2.remap(self.grid, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        return expand(self.grid, self.factor, self.shape)
 
 
 @dataclass(frozen=True)
@@ -167,13 +159,15 @@ def interest_map(
     typical = np.float32(np.median(total[::step, ::step]))
     sigma = params.sigma((rows, cols))
     f = _factor(sigma, (rows, cols), params.exact_blur)
-    blurred = _blur(_reduce(total, f) - typical, sigma, f)
+    blurred = _blur(block_means(total, f) - typical, sigma, f)
     grid = plain = blurred
     if params.isotropy > 0:
         grid = blurred * _roundness(blurred, sigma / f, params.isotropy)
     if texture is not None and params.texture_weight > 0:
         rare = _blur(
-            _reduce(texture, f) - np.median(texture[::step, ::step]), sigma * params.texture_blur, f
+            block_means(texture, f) - np.median(texture[::step, ::step]),
+            sigma * params.texture_blur,
+            f,
         )
         fused = fuse(grid, rare, params.texture_weight)
         plain = fused if plain is grid else fuse(plain, rare, params.texture_weight)
@@ -183,7 +177,7 @@ def interest_map(
     lines = None
     if line is not None and params.line_weight > 0:
         # Typical rock is on no line (its rarity is 0 at the median and below: ``lines``).
-        lines = _blur(_reduce(line, f), sigma, f)
+        lines = _blur(block_means(line, f), sigma, f)
         lines = params.line_weight * _unit(lines, _NO_LINE)
         # The same lines on each map; maps that are one array stay one.
         same = (blurred is grid, plain is grid, plain is blurred)
@@ -191,7 +185,7 @@ def interest_map(
         blurred = grid if same[0] else blurred + lines
         plain = grid if same[1] else blurred if same[2] else plain + lines
     if prior is not None:
-        grid = grid * _reduce(prior.astype(np.float32, copy=False), f)
+        grid = grid * block_means(prior.astype(np.float32, copy=False), f)
     return InterestMap(
         grid,
         f,
@@ -233,29 +227,13 @@ among the held-out generator's veins and 97-251 among ours. On tuning seeds 1000
 of 20 everywhere."""
 
 
-def _reduce(image: np.ndarray, f: int) -> np.ndarray:
-    """Mean over f x f blocks (the frame padded by reflection to a multiple of f)."""
-    if f == 1:
-        return image
-    rows, cols = image.shape
-    pad_r, pad_c = (-rows) % f, (-cols) % f
-    if pad_r or pad_c:
-        image = cv2.copyMakeBorder(image, 0, pad_r, 0, pad_c, cv2.BORDER_REFLECT_101)
-    return cv2.resize(
-        image, (image.shape[1] // f, image.shape[0] // f), interpolation=cv2.INTER_AREA
-    )
-
-
 def _blur(grid: np.ndarray, sigma: float, f: int) -> np.ndarray:
-    """Blur a grid of f x f block means so the result equals a sigma blur of the image.
-
-    Outside the frame counts as 0 (the typical level, once the median is taken off), not as
-    a mirror image: a patch cut by the frame is only partly seen and scores for what is seen.
-    Mirrored, a half patch at the border scored as a whole one, and vignetted frame edges
-    drew 55-90 % of the best points on three real sets whose targets lie there 8-25 % of
-    the time."""
-    residual = math.sqrt(max(sigma**2 - (f * f - 1) / 12.0, 1e-6)) / f
-    return cv2.GaussianBlur(grid, (0, 0), residual, borderType=cv2.BORDER_CONSTANT)
+    """``grid.grid_blur`` with the outside of the frame counted as 0 (the typical level, once
+    the median is taken off), not as a mirror image: a patch cut by the frame is only partly
+    seen and scores for what is seen. Mirrored, a half patch at the border scored as a whole
+    one, and vignetted frame edges drew 55-90 % of the best points on three real sets whose
+    targets lie there 8-25 % of the time."""
+    return grid_blur(grid, sigma, f, cv2.BORDER_CONSTANT)
 
 
 def _curvatures(smooth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

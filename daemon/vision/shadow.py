@@ -52,9 +52,10 @@ first in the procedural world's 300 m mosaics 66 % of the time, from 63.5 (200 w
 wide scale then took decoy@1 with no target to 2.5 %, top-1 on veins and large targets to 82.5 %,
 and put the stain first in 17 of the 18 60 m approach mosaics that hold it, from 15; without
 the elongation test it also gated the stain's core out of 4 of the 12 10 m mosaics. The side
-comparisons are made only where a pixel is darker than its surroundings' mean, and the
-surround blurs on a grid of 2 x 2 means: 10.5 ms at the 0.13 MP working size, 2.4 of them the
-wide scale (8.8 before it, 9.2 before the side comparisons).
+comparisons are made only where a pixel is darker than its surroundings' mean, the
+surroundings are blurred on a grid of 2 x 2 means (``grid.surround``) and the wide scale is
+judged on a grid of 4 x 4: 15 ms at the 0.13 MP working size (``bench.speed``'s 1 MP image,
+one thread; 16 with OpenCV's area reduction at fractional scales).
 """
 
 from __future__ import annotations
@@ -64,6 +65,7 @@ import math
 import cv2
 import numpy as np
 
+from .grid import block_means, expand, surround
 from .params import VisionParams
 
 __all__ = ["shadow_likelihood"]
@@ -137,9 +139,8 @@ def shadow_likelihood(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
     shade = _likelihood(bgr, params)
     rows, cols = shade.shape
     if min(rows, cols) >= _WIDE_MIN * _WIDE:
-        small = cv2.resize(bgr, (cols // _WIDE, rows // _WIDE), interpolation=cv2.INTER_AREA)
-        wide = cv2.resize(_elongated(_likelihood(small, params)), (cols, rows))
-        shade = cv2.max(shade, wide)
+        wide = _elongated(_likelihood(block_means(bgr, _WIDE), params))
+        shade = cv2.max(shade, expand(wide, _WIDE, (rows, cols)))
     return shade
 
 
@@ -148,9 +149,9 @@ def _likelihood(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
     logs = cv2.log(bgr.astype(np.float32) + np.float32(_OFFSET))
     sigma = params.shadow_surround
     own = cv2.GaussianBlur(logs, (0, 0), _FINE)
-    size = bgr.shape[1::-1]
+    shape = bgr.shape[:2]
     brightness = cv2.transform(own, _MEAN)
-    around = cv2.resize(_coarse(cv2.transform(logs, _MEAN), sigma), size)
+    around = expand(*surround(cv2.transform(logs, _MEAN), sigma), shape)
     # Lit rock is what is not much darker than its surroundings' mean, then than the lit
     # rock's own mean: a stain or a shadow twice the surround wide is most of its own
     # surroundings, and once left out it no longer dims the rock it is compared with.
@@ -193,9 +194,10 @@ def _lit_mean(
     """Mean log colour of the pixels within ``_LIT`` of ``level`` or brighter (their blurred
     sum over their blurred weight), at every pixel."""
     lit = (cv2.subtract(brightness, level) > -_LIT).astype(np.float32)
-    both = _coarse(cv2.merge([*cv2.split(cv2.multiply(logs, cv2.merge([lit] * 3))), lit]), sigma)
+    weighted = cv2.merge([*cv2.split(cv2.multiply(logs, cv2.merge([lit] * 3))), lit])
+    both, f = surround(weighted, sigma)
     weight = cv2.merge([both[..., 3] + np.float32(1e-3)] * 3)
-    return cv2.resize(cv2.divide(both[..., :3], weight), logs.shape[1::-1])
+    return expand(cv2.divide(both[..., :3], weight), f, logs.shape[:2])
 
 
 def _elongated(shade: np.ndarray) -> np.ndarray:
@@ -221,17 +223,6 @@ def _elongated(shade: np.ndarray) -> np.ndarray:
 
 def _disc(radius: int) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
-
-
-def _coarse(image: np.ndarray, sigma: float) -> np.ndarray:
-    """A Gaussian blur of ``sigma`` pixels on a grid of 2 x 2 means (a sigma-6 surround has
-    nothing finer than that grid: a quarter of the pixels and half the kernel); resized
-    back to the image by the caller, after what is cheaper done on the grid."""
-    rows, cols = image.shape[:2]
-    if sigma < 4.0 or min(rows, cols) < 16:
-        return cv2.GaussianBlur(image, (0, 0), sigma)
-    small = cv2.resize(image, (cols // 2, rows // 2), interpolation=cv2.INTER_AREA)
-    return cv2.GaussianBlur(small, (0, 0), math.sqrt(sigma * sigma - 0.25) / 2.0)
 
 
 def _project(logs: np.ndarray, tint: tuple[float, float]) -> list[np.ndarray]:

@@ -7,7 +7,7 @@ from their surroundings in local contrast more than in any one value, hardly reg
 Each pixel gets a descriptor: the local standard deviation of intensity at each of
 ``texture_scales`` (Gaussian sigmas, analysed-image pixels), its brightness against its
 surroundings (the log ratio of the intensity at the finest scale to that at
-``texture_surround``, on the side likest it), and, for
+``texture_surround``, blurred on a grid of 2 x 2 means, on the side likest it), and, for
 colour images, two opponent chroma values (red - green, yellow - blue). Its rarity is the
 squared Mahalanobis distance from the image's typical descriptor, the negative
 log-likelihood under one Gaussian model of the image's textures (Reed & Yu's RX detector on
@@ -36,6 +36,7 @@ import math
 import cv2
 import numpy as np
 
+from . import grid
 from .params import VisionParams
 
 __all__ = ["descriptors", "texture_rarity"]
@@ -75,7 +76,7 @@ def descriptors(bgr: np.ndarray, scales: tuple[float, ...], surround: float) -> 
         blurred = fine if sigma == scales[0] else cv2.GaussianBlur(moments, (0, 0), sigma)
         mean, square = cv2.extractChannel(blurred, 0), cv2.extractChannel(blurred, 1)
         planes.append(cv2.sqrt(np.maximum(square - cv2.multiply(mean, mean), 0.0)))
-    around = cv2.GaussianBlur(ratio, (0, 0), surround)
+    around = grid.expand(*grid.surround(ratio, surround), ratio.shape)
     planes.append(_likest_side(cv2.extractChannel(fine, 4), around, round(surround)))
     return cv2.merge([*planes, cv2.extractChannel(fine, 2), cv2.extractChannel(fine, 3)])
 

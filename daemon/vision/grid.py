@@ -1,0 +1,87 @@
+"""Wide Gaussian blurs on a grid of block means, for the maps and surroundings of the core.
+
+A sigma-s blur removes everything above ~1/(2 pi s) cycles/px, so an image can first be
+averaged over f x f blocks and blurred on that grid with the residual sigma
+sqrt(s^2 - (f^2 - 1)/12) / f (a block mean is a box of variance (f^2 - 1)/12): f^2 times fewer
+pixels and an f times shorter kernel, within 1 % of the exact blur across a step. The interest map
+blurs at B this way; the shadow gate's and texture's surroundings (sigma 6 and 16 analysed
+pixels) on a grid of 2 x 2 means.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+
+__all__ = ["block_means", "expand", "grid_blur", "surround"]
+
+_SURROUND_GRID = 2
+"""Block size of a surround's grid: 2 x 2 keeps a sigma-4 blur within 1 % of the exact one."""
+_MIN_SURROUND = 4.0
+"""Surroundings of a smaller sigma (analysed pixels) are blurred at full resolution."""
+
+
+def block_means(image: np.ndarray, f: int) -> np.ndarray:
+    """Mean over f x f blocks, the frame padded by reflection to a multiple of f.
+
+    Examples
+    --------
+    >>> img = np.arange(16, dtype=np.float32).reshape(4, 4)
+    >>> block_means(img, 2).tolist()
+    [[2.5, 4.5], [10.5, 12.5]]
+    >>> block_means(np.zeros((5, 3, 4), np.float32), 2).shape  # any channels, odd sides
+    (3, 2, 4)
+    """
+    if f == 1:
+        return image
+    rows, cols = image.shape[:2]
+    pad_r, pad_c = (-rows) % f, (-cols) % f
+    if pad_r or pad_c:
+        image = cv2.copyMakeBorder(image, 0, pad_r, 0, pad_c, cv2.BORDER_REFLECT_101)
+    return cv2.resize(
+        image, (image.shape[1] // f, image.shape[0] // f), interpolation=cv2.INTER_AREA
+    )
+
+
+def grid_blur(
+    grid: np.ndarray, sigma: float, f: int, border: int = cv2.BORDER_REFLECT_101
+) -> np.ndarray:
+    """Blur a grid of f x f block means so the result equals a ``sigma`` blur of the image."""
+    residual = math.sqrt(max(sigma**2 - (f * f - 1) / 12.0, 1e-6)) / f
+    return cv2.GaussianBlur(grid, (0, 0), residual, borderType=border)
+
+
+def expand(grid: np.ndarray, f: int, shape: tuple[int, int]) -> np.ndarray:
+    """A grid of f x f blocks back at the image's ``shape``, bilinear between block centres.
+
+    Examples
+    --------
+    >>> grid = np.array([[0.0, 4.0]], np.float32)
+    >>> expand(grid, 2, (1, 3)).tolist()  # block centres at x = 0.5 and 2.5
+    [[0.0, 1.0, 3.0]]
+    """
+    if f == 1:
+        return grid
+    rows, cols = grid.shape[:2]
+    return cv2.resize(grid, (cols * f, rows * f))[: shape[0], : shape[1]]
+
+
+def surround(image: np.ndarray, sigma: float) -> tuple[np.ndarray, int]:
+    """A ``sigma`` blur of ``image`` and the block size of the grid it is on (``expand``
+    brings it back); wide surroundings are blurred on a grid of 2 x 2 means.
+
+    Examples
+    --------
+    >>> img = np.zeros((64, 64), np.float32)
+    >>> img[30:, :] = 1.0                               # a contact between two beds
+    >>> wide, f = surround(img, 6.0)
+    >>> f, wide.shape
+    (2, (32, 32))
+    >>> exact = cv2.GaussianBlur(img, (0, 0), 6.0)
+    >>> bool(np.abs(expand(wide, f, img.shape) - exact).max() < 0.01)
+    True
+    """
+    f = _SURROUND_GRID if sigma >= _MIN_SURROUND and min(image.shape[:2]) >= 16 else 1
+    return grid_blur(block_means(image, f), sigma, f), f
