@@ -12,12 +12,12 @@ import math
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 
 from .imageio import as_bgr8, write_atomic, write_jpeg, write_png
 from .vision import render
 from .vision.explain import PLANE_NAMES, describe
+from .vision.grid import reduce_to
 from .vision.interest import InterestPoint
 from .vision.params import VisionParams, profile
 from .vision.pipeline import Analysis, analyze
@@ -62,7 +62,7 @@ def analyze_image(
     if downsample != 1.0:
         rows, cols = bgr.shape[:2]
         size = (max(1, int(cols / downsample)), max(1, int(rows / downsample)))
-        work = cv2.resize(bgr, size, interpolation=cv2.INTER_AREA)
+        work = reduce_to(bgr, size)
     return bgr, analyze(work, params, prior)
 
 
@@ -147,7 +147,7 @@ def write_products(
     if scale == 1.0:
         put("overlay.png", render.overlay(bgr, res.points))
     else:  # a big input: the overlay at the analysed size, and a JPEG at full size
-        small = cv2.resize(bgr, res.hsi.i.shape[::-1], interpolation=cv2.INTER_AREA)
+        small = reduce_to(bgr, res.hsi.i.shape[::-1])
         put("overlay.png", render.overlay(small, res.points))
         write_jpeg(folder / "overlay_full.jpg", render.overlay(bgr, res.points, scale=scale))
         products["overlay_full"] = "overlay_full.jpg"

@@ -15,7 +15,7 @@ import math
 import cv2
 import numpy as np
 
-__all__ = ["block_means", "expand", "grid_blur", "surround"]
+__all__ = ["block_means", "expand", "grid_blur", "reduce_to", "surround"]
 
 _SURROUND_GRID = 2
 """Block size of a surround's grid: 2 x 2 keeps a sigma-4 blur within 1 % of the exact one."""
@@ -85,3 +85,29 @@ def surround(image: np.ndarray, sigma: float) -> tuple[np.ndarray, int]:
     """
     f = _SURROUND_GRID if sigma >= _MIN_SURROUND and min(image.shape[:2]) >= 16 else 1
     return grid_blur(block_means(image, f), sigma, f), f
+
+
+def reduce_to(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """``image`` reduced to ``size`` (columns, rows) by area averaging: whole n x n blocks
+    first, then bilinear for the part of the reduction left (under 1.5x once n >= 2).
+
+    OpenCV's area reduction at a fractional scale weighs every source pixel by its overlap,
+    3.3 ms for a 1 MP image to the 0.13 MP working size, against 1.4 for whole 3 x 3 blocks
+    and 0.1 for the bilinear rest. The box has already removed what the rest would alias.
+
+    Examples
+    --------
+    >>> img = np.zeros((300, 400, 3), np.uint8)
+    >>> img[:, 200:] = 200
+    >>> small = reduce_to(img, (123, 92))
+    >>> small.shape, int(small[50, 10, 0]), int(small[50, 110, 0])
+    ((92, 123, 3), 0, 200)
+    """
+    rows, cols = image.shape[:2]
+    n = min(rows // size[1], cols // size[0])
+    if n < 2:
+        return cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+    blocks = block_means(image, n)
+    if blocks.shape[1::-1] == size:
+        return blocks
+    return cv2.resize(blocks, size, interpolation=cv2.INTER_LINEAR)
