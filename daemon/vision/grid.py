@@ -3,9 +3,10 @@
 A sigma-s blur removes everything above ~1/(2 pi s) cycles/px, so an image can first be
 averaged over f x f blocks and blurred on that grid with the residual sigma
 sqrt(s^2 - (f^2 - 1)/12) / f (a block mean is a box of variance (f^2 - 1)/12): f^2 times fewer
-pixels and an f times shorter kernel, within 1 % of the exact blur across a step. The interest map
-blurs at B this way; the shadow gate's and texture's surroundings (sigma 6 and 16 analysed
-pixels) on a grid of 2 x 2 means.
+pixels and an f times shorter kernel, within 1 % of the exact blur across a step. The interest
+map blurs at B this way; the shadow gate's surroundings and texture's moments and surroundings
+(sigma 4 to 16 analysed pixels) on a grid of 2 x 2 means. An image bigger than the working size
+is reduced to it in whole blocks first, for the same reason (``reduce_to``).
 """
 
 from __future__ import annotations
