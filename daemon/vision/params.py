@@ -154,6 +154,11 @@ class VisionParams:
     iso), iso = lambda_small / lambda_large of the map's curvature at twice B (1 on a round
     patch, 0 along a ridge). Long ledge shadows and bed contacts, rare only along their
     length, lose their lead over compact patches; a long target rare enough still counts."""
+    wide_scale: float = 0.0
+    """When > 0, the uncommon interest is also blurred with this many times B's sigma, scaled
+    by its roundness (``isotropy``), weighted 1 + ``texture_weight`` and kept where it is
+    higher than the map (``interest``): a compact area of rare colour tens of pixels across
+    scores as a whole at its own scale. 0: one scale, as the seed."""
     valley: float = 0.0
     """Two peaks are one target unless the map falls below this fraction of the lower one
     between them (0: only the separation keeps points apart, as the seed did)."""
@@ -197,6 +202,8 @@ class VisionParams:
             raise ValueError(f"unknown hue_grey mode {self.hue_grey!r}")
         if self.blur_fraction < 0 or self.value_rarity < 0 or not 0 <= self.isotropy <= 1:
             raise ValueError("blur_fraction, value_rarity >= 0; isotropy in [0, 1]")
+        if not (self.wide_scale == 0 or 1 < self.wide_scale < math.inf):
+            raise ValueError(f"wide_scale must be 0 or above 1, got {self.wide_scale}")
         if not 0 <= self.valley < 1 or self.max_pixels < 0 or min(self.bands, self.frame) < 0:
             raise ValueError("valley in [0, 1), max_pixels >= 0, bands and frame >= 0")
         if self.blur_mode not in ("sigma", "fwhm"):
@@ -308,6 +315,7 @@ DEFAULT = UNCOMMON.replace(
     presmooth=0.7,
     layers=0.5,
     line_weight=1.0,
+    wide_scale=4.0,
 )
 """``uncommon`` plus texture rarity (``texture``), line rarity (``lines``: veins and cracks, not
 bed contacts), the shadow gate (``shadow``), the layer discount (``layers``: a bed across the

@@ -4,7 +4,9 @@ import cv2
 import numpy as np
 import pytest
 
+from bench.heldout import REGIMES as HELD_OUT
 from daemon.imageio import as_bgr8
+from daemon.regimes import REGIMES as OURS
 from daemon.vision.cooccurrence import PlaneClass, Segmentation
 from daemon.vision.explain import describe
 from daemon.vision.interest import (
@@ -331,3 +333,26 @@ def test_a_flat_top_is_round_and_a_ridge_is_not() -> None:
     ridge = np.exp(-((yy - 80) ** 2) / 50.0) * (np.abs(xx - 120) < 100)
     iso = _roundness(ridge.astype(np.float32), 2.0, 1.0)
     assert iso[80, 60:180].max() < 0.2
+
+
+@pytest.mark.parametrize(("generator", "seed"), [(OURS, 1023), (HELD_OUT, 1019)])
+def test_a_wide_patch_of_rare_colour_beats_rare_texture_along_the_beds(generator, seed):
+    """A concretion of 9-13 % of the view among beds whose contacts and thin laminae are the
+    rarest texture in view: texture marks only the patch's rim, so at one scale the beds
+    win; blurred at its own scale (``wide_scale``) the patch is one high cap."""
+    scene = generator["large"](seed)
+    target = scene.target_labels > 0
+
+    def on_target(params):
+        top = analyze(scene.image, params).points[0]
+        return bool(target[round(top.y), round(top.x)])
+
+    assert not on_target(DEFAULT.replace(wide_scale=0.0)), "at one scale the beds win"
+    assert on_target(DEFAULT)
+
+
+def test_wide_scale_is_refused_between_0_and_1() -> None:
+    with pytest.raises(ValueError, match="wide_scale"):
+        DEFAULT.replace(wide_scale=0.5)
+    with pytest.raises(ValueError, match="wide_scale"):
+        DEFAULT.replace(wide_scale=math.inf)
