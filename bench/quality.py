@@ -19,7 +19,7 @@ share of the view. Scores per regime and method, averaged over scenes:
 * decoy@3 (``shadow3``): the share of the three points that land on a decoy (shadow) pixel
   instead of a hit;
 * decoy@1 (``decoy1``): the best point lands on a decoy pixel; the headline of ``empty``,
-  where top-1 means nothing;
+  where top-1 means nothing, and with a target how often a shadow took first place;
 * distinct@3 (``distinct3``): the three points go to three different places. Each point is
   assigned to the object it hits: the nearest target if it hits one, else the nearest
   connected decoy component within the tolerance, else nothing. The scene scores 1 when no
@@ -436,7 +436,7 @@ def main(argv: list[str] | None = None) -> int:
         keys = (
             ("decoy1", "shadow3", "distinct3", "repeat1")
             if name == "empty"
-            else ("top1", "any3", "precision3", "shadow3", "distinct3", "repeat1")
+            else ("top1", "any3", "precision3", "decoy1", "shadow3", "distinct3", "repeat1")
         )
         print(f"{'method':18s}" + "".join(f"{LABELS[k]:>11s}" for k in keys) + f"{'ms/look':>9s}")
         for method, r in table.items():
