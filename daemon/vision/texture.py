@@ -94,10 +94,12 @@ def _likest_side(own: np.ndarray, around: np.ndarray, reach: int) -> np.ndarray:
     """
     rows, cols = own.shape
     padded = cv2.copyMakeBorder(around, reach, reach, reach, reach, cv2.BORDER_REPLICATE)
-    best = own - around
+    best, gap = cv2.subtract(own, around), cv2.absdiff(own, around)
     for dy, dx in ((0, reach), (2 * reach, reach), (reach, 0), (reach, 2 * reach)):
-        diff = own - padded[dy : dy + rows, dx : dx + cols]
-        np.copyto(best, diff, where=np.abs(diff) < np.abs(best))
+        side = padded[dy : dy + rows, dx : dx + cols]
+        here = cv2.absdiff(own, side)
+        cv2.copyTo(cv2.subtract(own, side), cv2.compare(here, gap, cv2.CMP_LT), best)
+        cv2.min(gap, here, dst=gap)
     return best
 
 
