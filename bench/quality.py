@@ -79,7 +79,7 @@ from daemon.regimes import (
 )
 from daemon.scene import Scene
 from daemon.vision.interest import InterestPoint
-from daemon.vision.params import DEFAULT, PAPER, UNCOMMON, VisionParams
+from daemon.vision.params import DEFAULT, PAPER, UNCOMMON, VisionParams, with_settings
 
 Method = Callable[[Scene, np.random.Generator], list[InterestPoint]]
 
@@ -110,11 +110,13 @@ def pipeline_method(params: VisionParams) -> Method:
     return method
 
 
-def methods() -> dict[str, Method]:
+def methods(settings: Sequence[str] = ()) -> dict[str, Method]:
+    """Every method in the run; ``settings`` (``NAME=VALUE``, ``params.with_settings``) change
+    each pipeline profile alike, the baselines not at all."""
     return {
-        "default": pipeline_method(DEFAULT),
-        "paper": pipeline_method(PAPER),
-        "uncommon": pipeline_method(UNCOMMON),
+        "default": pipeline_method(with_settings(DEFAULT, list(settings))),
+        "paper": pipeline_method(with_settings(PAPER, list(settings))),
+        "uncommon": pipeline_method(with_settings(UNCOMMON, list(settings))),
         "spectral-residual": lambda s, _r: points_from_map(spectral_residual(s.image), False),
         "colour-rarity": lambda s, _r: points_from_map(colour_rarity(s.image), True),
         "rx-anomaly": lambda s, _r: points_from_map(rx_anomaly(s.image), True),
@@ -215,11 +217,12 @@ def run_regime(
     *,
     camera: Collection[str] = (),
     camera_scale: float = 1.0,
+    settings: Sequence[str] = (),
 ) -> dict[str, dict[str, float]]:
     """Every method on scenes ``seed .. seed + n_scenes - 1`` of one regime: mean scores,
     and ``ms``, the mean time of one look; with ``camera`` effects, each scene and look as
     ``through_camera`` delivers it (a frame ``camera_scale`` times the analysed size)."""
-    table = methods()
+    table = methods(settings)
     sums = {name: dict.fromkeys((*SCORES, "ms"), 0.0) for name in table}
     for i in range(n_scenes):
         scene = generate(seed + i)
@@ -251,6 +254,7 @@ def run(
     camera: Collection[str] = (),
     camera_scale: float = 1.0,
     generators: Mapping[str, Callable[[int], Scene]] = REGIMES,
+    settings: Sequence[str] = (),
 ) -> dict[str, dict[str, dict[str, float]]]:
     """{regime: {method: scores}} for the named regimes (all by default), in that order,
     drawn by ``generators`` (ours, or ``bench.heldout.REGIMES``).
@@ -259,14 +263,22 @@ def run(
     diagonal. Each regime gets the same seeds; its generator keeps them apart. With
     ``camera`` effects, every scene goes through ``through_camera`` with a frame
     ``camera_scale`` times the analysed size (it refuses an unknown effect or a scale < 1).
+    ``settings`` change the pipeline profiles (``methods``); a bad one is refused up front.
     """
     names = list(generators) if regimes is None else list(regimes)
     unknown = [n for n in names if n not in generators]
     if unknown:
         raise ValueError(f"unknown regimes {unknown}; choose from {list(generators)}")
+    methods(settings)
     return {
         name: run_regime(
-            generators[name], n_scenes, seed, tolerance, camera=camera, camera_scale=camera_scale
+            generators[name],
+            n_scenes,
+            seed,
+            tolerance,
+            camera=camera,
+            camera_scale=camera_scale,
+            settings=settings,
         )
         for name in names
     }
@@ -392,6 +404,14 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="scenes from bench.heldout, an independent generator (no seed case)",
     )
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        dest="settings",
+        help="change every pipeline profile alike (repeatable), e.g. --set uncommon=surprisal",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     generators, descriptions = (
@@ -410,6 +430,7 @@ def main(argv: list[str] | None = None) -> int:
             camera=camera,
             camera_scale=args.camera_scale,
             generators=generators,
+            settings=args.settings,
         )
     except ValueError as exc:
         ap.error(str(exc))
@@ -423,6 +444,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     if args.heldout:
         print("held-out generator (bench.heldout): reported, never tuned on; no seed case")
+    if args.settings:
+        print(f"settings, in every pipeline profile: {' '.join(args.settings)}")
     if camera:
         lo, hi = JPEG_QUALITY
         print(
@@ -444,7 +467,10 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{method:18s}{cells}{r['ms']:9.2f}")
     if args.cliffs and not args.heldout:
         print()
-        case = seed_case(args.cliffs, args.seed, camera=camera, camera_scale=args.camera_scale)
+        paper = with_settings(PAPER, args.settings)
+        case = seed_case(
+            args.cliffs, args.seed, paper, camera=camera, camera_scale=args.camera_scale
+        )
         print_seed_case(case, args.cliffs)
     goals = ", ".join(f"{LABELS[k]} >= {100 * v:g}%" for k, v in GOALS.items())
     print(f"\nverdicts (goals {goals}; empty: repeat@1 only; [95 % interval]):")

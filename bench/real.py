@@ -68,7 +68,7 @@ from daemon.imageio import ImageError, as_bgr8, read_image
 from daemon.products import analyze_image, input_points
 from daemon.regimes import jpeg_quality, jpeg_round_trip
 from daemon.vision.interest import InterestPoint
-from daemon.vision.params import DEFAULT, PAPER, UNCOMMON, VisionParams
+from daemon.vision.params import DEFAULT, PAPER, UNCOMMON, VisionParams, with_settings
 
 HIT_SHARE = 0.015
 """Hit radius, as a share of the image diagonal."""
@@ -106,16 +106,17 @@ def pipeline_method(params: VisionParams) -> Method:
     return method
 
 
-def methods() -> dict[str, Method]:
-    """Every method in the run, pipeline profiles first."""
+def methods(settings: Sequence[str] = ()) -> dict[str, Method]:
+    """Every method in the run, pipeline profiles first; ``settings`` (``NAME=VALUE``,
+    ``params.with_settings``) change each pipeline profile alike, the baselines not at all."""
 
     def from_map(saliency: Callable[[np.ndarray], np.ndarray], blur: bool) -> Method:
         return lambda img, _r: points_from_map(saliency(img), blur)
 
     return {
-        "default": pipeline_method(DEFAULT),
-        "paper": pipeline_method(PAPER),
-        "uncommon": pipeline_method(UNCOMMON),
+        "default": pipeline_method(with_settings(DEFAULT, list(settings))),
+        "paper": pipeline_method(with_settings(PAPER, list(settings))),
+        "uncommon": pipeline_method(with_settings(UNCOMMON, list(settings))),
         "spectral-residual": from_map(lambda img: spectral_residual(as_bgr8(img)), False),
         "colour-rarity": from_map(colour_rarity, True),
         "rx-anomaly": from_map(lambda img: rx_anomaly(as_bgr8(img)), True),
@@ -247,9 +248,11 @@ def run(
     *,
     progress: bool = False,
     jpeg: int | None = None,
+    settings: Sequence[str] = (),
 ) -> dict[str, Any]:
     """Score the chosen methods on the chosen sets; returns per-group and pooled rates.
-    ``jpeg``: the repeat looks go through a JPEG at this quality (1..100).
+    ``jpeg``: the repeat looks go through a JPEG at this quality (1..100); ``settings``
+    change the pipeline profiles (``methods``).
 
     Groups, in order: each set, then its tag subsets (``marsdata/Rock-A``) and extra masks
     (``cwfid-weed``); ``pooled`` last, over every image of every set against its main mask.
@@ -258,7 +261,7 @@ def run(
     data_dir = Path(data_dir)
     if jpeg is not None:
         jpeg_quality(jpeg)
-    table = _choose(methods)
+    table = _choose(methods, settings)
     names = list(table)
     available = list_sets(data_dir)
     chosen = list(sets) if sets else available
@@ -298,13 +301,14 @@ def run(
         "sets": [s for s in chosen if s in groups],
         "methods": names,
         "jpeg": jpeg,
+        "settings": list(settings),
         "groups": groups,
         "failed": failed,
     }
 
 
-def _choose(chosen: Sequence[str] | None) -> dict[str, Method]:
-    table = methods()
+def _choose(chosen: Sequence[str] | None, settings: Sequence[str] = ()) -> dict[str, Method]:
+    table = methods(settings)
     if not chosen:
         return table
     unknown = [m for m in chosen if m not in table]
@@ -366,6 +370,7 @@ def format_table(results: dict[str, Any]) -> list[str]:
         f"real: {n} images in {len(results['sets'])} sets from {results['data']}; hit within "
         f"{100 * HIT_SHARE:g}% of the diagonal, repeat within {100 * REPEAT_SHARE:g}%"
         + (f"; repeat looks through JPEG quality {results['jpeg']}" if results.get("jpeg") else "")
+        + (f"; in every pipeline profile {' '.join(s)}" if (s := results.get("settings")) else "")
     ]
     head = ("method", "top1", "any3", "p@3", "repeat@1", "ms")
     for gname, g in groups.items():
@@ -425,8 +430,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--jpeg", type=_quality, default=None, metavar="Q", help="repeat looks through JPEG at Q"
     )
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        dest="settings",
+        help="change every pipeline profile alike (repeatable), e.g. --set uncommon=surprisal",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    try:  # a mistyped setting is refused whether or not the data is here
+        methods(args.settings)
+    except ValueError as exc:
+        ap.error(str(exc))
     data = args.data or default_data_dir()
     if not data.is_dir() or not list_sets(data):
         print(f"real: data folder {data} is absent (no sets); nothing to score")
@@ -436,7 +453,13 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     try:
         results = run(
-            data, split or None, args.limit, chosen or None, progress=True, jpeg=args.jpeg
+            data,
+            split or None,
+            args.limit,
+            chosen or None,
+            progress=True,
+            jpeg=args.jpeg,
+            settings=args.settings,
         )
     except ValueError as exc:
         ap.error(str(exc))

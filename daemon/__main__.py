@@ -24,7 +24,7 @@ from .ptu.emulator import Ptu46Emulator
 from .ptu.models import MODELS
 from .ptu.ptyserver import BANNER, PtyEmulatorServer, parse_fault, serve
 from .router import run_router
-from .vision.params import PROFILES, profile
+from .vision.params import PROFILES, profile, with_settings
 from .zenohlog import route_zenoh_logs
 
 _LOGGER = logging.getLogger(__name__)
@@ -103,6 +103,15 @@ def _analyze_parser(sub: argparse._SubParsersAction) -> None:
     )
     ap.add_argument("--profile", choices=sorted(PROFILES), default="default")
     ap.add_argument("--top", type=int, default=None, metavar="N", help="number of interest points")
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        dest="settings",
+        help="change one parameter of the profile (repeatable; names as in result.json's "
+        "params), e.g. --set uncommon=surprisal",
+    )
     ap.add_argument(
         "--downsample",
         type=float,
@@ -216,7 +225,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "analyze":
         if args.downsample is not None and args.downsample <= 0:
             parser.error("--downsample must be > 0")
-        params = profile(args.profile)
+        try:
+            params = with_settings(profile(args.profile), args.settings)
+        except ValueError as exc:
+            parser.error(f"--set: {exc}")
         if args.top is not None:
             if args.top < 0:
                 parser.error("--top must be >= 0")

@@ -9,7 +9,10 @@ one benchmark run.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
+import types
+import typing
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -346,3 +349,72 @@ def profile(name: str) -> VisionParams:
         return PROFILES[name]
     except KeyError:
         raise ValueError(f"unknown profile {name!r}; choose from {sorted(PROFILES)}") from None
+
+
+def with_settings(params: VisionParams, settings: list[str]) -> VisionParams:
+    """``params`` with ``NAME=VALUE`` settings applied, each value read as its field's type
+    (numbers; ``true``/``false``; comma-separated tuples; ``none`` for an optional number;
+    the named modes as written) and the whole validated again: how a scientist tries a choice
+    the profiles leave open (``cyborgd analyze --set uncommon=surprisal``) without code.
+
+    Examples
+    --------
+    >>> p = with_settings(PAPER, ["uncommon=surprisal", "blur=8", "plane_weights=1,1,2"])
+    >>> p.uncommon, p.blur, p.plane_weights
+    ('surprisal', 8.0, (1.0, 1.0, 2.0))
+    >>> with_settings(PAPER, ["blurr=8"])
+    Traceback (most recent call last):
+    ...
+    ValueError: unknown parameter 'blurr' (did you mean blur?)
+    """
+    hints = typing.get_type_hints(VisionParams)
+    changes: dict[str, Any] = {}
+    for item in settings:
+        name, sep, text = item.partition("=")
+        name, text = name.strip(), text.strip()
+        if not sep or not name:
+            raise ValueError(f"expected NAME=VALUE, got {item!r}")
+        if name not in hints:
+            near = difflib.get_close_matches(name, list(hints), n=1)
+            hint = f" (did you mean {near[0]}?)" if near else ""
+            raise ValueError(f"unknown parameter {name!r}{hint}")
+        try:
+            changes[name] = _read(hints[name], text)
+        except ValueError:
+            raise ValueError(f"{name}: cannot read {text!r} as {_describe(hints[name])}") from None
+    return params.replace(**changes)
+
+
+def _read(kind: Any, text: str) -> Any:
+    """``text`` as a value of the annotated type ``kind``."""
+    origin, args = typing.get_origin(kind), typing.get_args(kind)
+    if origin is typing.Literal:
+        if text not in args:
+            raise ValueError(text)
+        return text
+    if origin is tuple:
+        items = [t for t in text.split(",") if t.strip()]
+        return tuple(_read(args[0], t.strip()) for t in items)
+    if origin in (types.UnionType, typing.Union):
+        if text.lower() == "none" and type(None) in args:
+            return None
+        return _read(next(a for a in args if a is not type(None)), text)
+    if kind is bool:
+        if text.lower() not in _FLAGS:
+            raise ValueError(text)
+        return _FLAGS[text.lower()]
+    return kind(text)
+
+
+_FLAGS = {"true": True, "1": True, "yes": True, "false": False, "0": False, "no": False}
+
+
+def _describe(kind: Any) -> str:
+    origin, args = typing.get_origin(kind), typing.get_args(kind)
+    if origin is typing.Literal:
+        return " | ".join(args)
+    if origin is tuple:
+        return f"comma-separated {args[0].__name__}s"
+    if origin in (types.UnionType, typing.Union):
+        return " or ".join("none" if a is type(None) else a.__name__ for a in args)
+    return kind.__name__

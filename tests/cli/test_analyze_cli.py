@@ -197,7 +197,34 @@ def test_grey_16bit_rgba_and_tiny_files(tmp_path):
     assert docs[2]["points"] == [] and docs[3]["points"] == []
 
 
+def test_set_changes_one_parameter_and_result_json_records_it(tmp_path, scene_png):
+    path, _ = scene_png
+    out = tmp_path / "out"
+    proc = cyborgd(
+        "analyze",
+        str(path),
+        "--out",
+        str(out),
+        "--profile",
+        "paper",
+        "--set",
+        "uncommon=surprisal",
+        "--set",
+        "blur=8",
+        cwd=tmp_path,
+    )
+    assert proc.returncode == 0, proc.stderr
+    doc = json.loads((out / "outcrop" / "result.json").read_text())
+    assert doc["profile"] == "paper"
+    assert (doc["params"]["uncommon"], doc["params"]["blur"]) == ("surprisal", 8.0)
+    assert doc["params"]["max_classes"] == 8 and doc["points"]
+
+
 def test_usage_errors(tmp_path):
+    bad = cyborgd("analyze", "x.png", "--set", "blurr=3", cwd=tmp_path)
+    assert bad.returncode == 2 and "unknown parameter 'blurr' (did you mean blur?)" in bad.stderr
+    bad = cyborgd("analyze", "x.png", "--set", "wide_scale=0.5", cwd=tmp_path)
+    assert bad.returncode == 2 and "wide_scale must be 0 or above 1" in bad.stderr
     assert cyborgd("analyze", "x.png", "--profile", "nope", cwd=tmp_path).returncode == 2
     assert cyborgd("analyze", "x.png", "--downsample", "0", cwd=tmp_path).returncode == 2
     assert cyborgd("analyze", cwd=tmp_path).returncode == 2

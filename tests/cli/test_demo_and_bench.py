@@ -25,6 +25,7 @@ from bench import (
 )
 from bench.stats import repeats
 from daemon.demo import run_demo
+from daemon.regimes import seed_cliff
 from daemon.scene import Scene, Target, outcrop_scene
 from daemon.vision.interest import InterestPoint
 
@@ -72,6 +73,20 @@ def test_quality_cli_runs_chosen_regimes_and_prints_a_verdict_each(capsys):
     assert re.search(r"both stains top two \d+ % \[\d+-\d+\]", out)
     with pytest.raises(SystemExit):
         quality.main(["--regimes", "nope", "--scenes", "1"])
+
+
+def test_quality_settings_change_every_pipeline_profile_and_no_baseline(capsys):
+    scene = seed_cliff(3)
+    table = quality.methods(["top_n=1"])
+    rng = np.random.default_rng(0)
+    assert [len(table[m](scene, rng)) for m in ("default", "paper", "uncommon")] == [1, 1, 1]
+    assert len(table["rx-anomaly"](scene, rng)) == 3
+    args = ["--regimes", "seed", "--scenes", "1", "--cliffs", "1", "--set", "uncommon=surprisal"]
+    assert quality.main(args) == 0
+    assert "settings, in every pipeline profile: uncommon=surprisal" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        quality.main(["--regimes", "seed", "--scenes", "1", "--set", "blurr=3"])
+    assert "unknown parameter 'blurr' (did you mean blur?)" in capsys.readouterr().err
 
 
 def test_quality_cli_scores_the_held_out_generator_without_a_seed_case(capsys):
@@ -241,6 +256,22 @@ def test_real_benchmark_jpeg_looks_are_a_cameras_frames_and_bad_quality_is_refus
     with pytest.raises(SystemExit):
         real.main(["--data", str(tmp_path / "nowhere"), "--jpeg", "0"])
     assert "JPEG quality is 1..100, got 0" in capsys.readouterr().err
+
+
+def test_real_benchmark_settings_reach_the_pipeline_profiles(tmp_path, capsys):
+    _toy_set(tmp_path)
+    # The toy target is 0.25 % of the image: under paper's class floor (0.5 % of the pairs),
+    # so no class and no point; with the floor lowered, paper finds it.
+    before = real.run(tmp_path, methods=["paper"])["groups"]["toy"]["rates"]["paper"]
+    results = real.run(tmp_path, methods=["paper"], settings=["min_class_fraction=0.001"])
+    assert results["settings"] == ["min_class_fraction=0.001"]
+    assert before["top1"] == 0.0 and results["groups"]["toy"]["rates"]["paper"]["top1"] == 1.0
+    header = real.format_table(results)[0]
+    assert header.endswith("; in every pipeline profile min_class_fraction=0.001")
+    # A mistyped setting is refused even where there is no data to score.
+    with pytest.raises(SystemExit):
+        real.main(["--data", str(tmp_path / "nowhere"), "--set", "top_n=two"])
+    assert "top_n: cannot read 'two' as int" in capsys.readouterr().err
 
 
 def test_real_benchmark_says_so_when_the_data_are_absent(tmp_path, capsys):
