@@ -16,7 +16,7 @@ from protocol.keys import Keys
 from protocol.transport import Transport
 
 from .site import SiteConfig
-from .vision.params import PROFILES
+from .vision.params import PROFILES, with_settings
 
 __all__ = [
     "CameraConfig",
@@ -64,6 +64,9 @@ class SurveyConfig:
     cols: int = 3
     downsample: float = 4.0
     profile: str = "default"
+    settings: tuple[str, ...] = ()
+    """``NAME=VALUE`` changes to whichever vision profile a survey uses, as ``cyborgd analyze
+    --set`` makes them (``params.with_settings``): a choice tried offline, taken to the field."""
     approach: tuple[float, ...] = (300.0, 60.0, 10.0)
     """Distances (m) of the approach loop's stations: the seed walked 300 -> 60 -> 10 m."""
     simulate_approach: bool = False
@@ -180,6 +183,13 @@ def validate(cfg: Config) -> Config:
     for ok, text in checks:
         if not ok:
             raise ConfigError(text)
+    if not all(isinstance(item, str) for item in s.settings):
+        raise ConfigError('survey.settings must list "NAME=VALUE" texts')
+    try:  # a survey may ask for any profile: each must take the settings
+        for params in PROFILES.values():
+            with_settings(params, list(s.settings))
+    except ValueError as exc:
+        raise ConfigError(f"survey.settings: {exc}") from None
     exposed = cfg.zenoh.exposed()
     if exposed and not cfg.zenoh.insecure:
         raise ConfigError(

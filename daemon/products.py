@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +20,7 @@ from .vision import render
 from .vision.explain import PLANE_NAMES, describe
 from .vision.grid import reduce_to
 from .vision.interest import InterestPoint
-from .vision.params import VisionParams, profile
+from .vision.params import VisionParams, profile, with_settings
 from .vision.pipeline import Analysis, analyze
 from .vision.uncommon import uncommon_map
 
@@ -156,14 +157,17 @@ def write_products(
     return doc
 
 
-def analyse_into(
+def analyse_into(  # noqa: PLR0917 - the worker passes a job's arguments by position
     folder: str,
     image: np.ndarray,
     profile_name: str,
     label: str,
     prior: np.ndarray | None = None,
+    settings: Sequence[str] = (),
 ) -> dict[str, Any]:
     """The vision worker's job: analyse a mosaic (weighted by ``prior``, memory across
-    stations) and write every product into ``folder``."""
-    bgr, res = analyze_image(image, profile(profile_name), prior=prior)
+    stations) with the profile changed by ``settings`` (``NAME=VALUE``, the rig's
+    ``survey.settings``) and write every product into ``folder``."""
+    params = with_settings(profile(profile_name), list(settings))
+    bgr, res = analyze_image(image, params, prior=prior)
     return write_products(Path(folder), label, bgr, res, profile_name)

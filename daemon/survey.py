@@ -164,7 +164,7 @@ class Survey:
             ap.session, ap.index = self.archive.new_session(), 0
             self.memory.clear()
         ap.index += 1
-        plan = geometry.to_plan(profile=req.profile)
+        plan = geometry.to_plan(profile=req.profile, settings=list(c.settings))
         self.station = self.archive.new_station(
             ap.session,
             ap.index,
@@ -355,7 +355,13 @@ class Survey:
             # that dies after the announcement dies with this station's job in it.
             self._progress("analysis", 0, 1)
             doc = await self.worker.call(
-                ANALYSE, str(station.partial_dir), mosaic, profile, "mosaic.png", prior
+                ANALYSE,
+                str(station.partial_dir),
+                mosaic,
+                profile,
+                "mosaic.png",
+                prior,
+                self.cfg.settings,
             )
             timing["analysis_s"] = self._analysis_estimate = time.perf_counter() - ta
             station.publish_analysis()

@@ -223,3 +223,30 @@ async def test_a_station_is_registered_to_the_one_it_was_aimed_from(engine) -> N
     assert reg["shift_deg"] < 0.5 and reg["scale"] == pytest.approx(1.0, abs=0.05)
     # Memory: the first station's interest weighed this one's (survey.memory, on by default).
     assert survey.station.manifest["memory"] == {"from": first.station, "weight": survey.cfg.memory}
+
+
+async def test_the_configured_settings_reach_the_worker_and_the_record(tmp_path: Path) -> None:
+    """``survey.settings`` change the profile the worker analyses with: here one point
+    instead of three; the station's plan and ``result.json`` say what was used."""
+    ptu = open_ptu("emu://?time_scale=50")
+    rig = Rig(ptu, lambda pose: open_camera("sim://outcrop?seed=3", pose=pose))
+    async with VisionWorker() as worker:
+        await ptu.open()
+        archive = Archive(tmp_path / "archive", "t")
+        archive.open()
+        config = SurveyConfig(settings=("top_n=1", "wide_scale=2"))
+        survey = Survey(rig, worker, archive, config, hfov=30.0, telemetry=Recorder().telemetry())
+        try:
+            survey.start(SurveyStart(rows=1, cols=2), "tester")
+            await survey._task
+            assert len(survey._result.points) == 1
+            assert survey.station.manifest["plan"]["settings"] == ["top_n=1", "wide_scale=2"]
+            doc = json.loads((survey.station.folder / "analysis" / "result.json").read_text())
+            assert (doc["profile"], doc["params"]["top_n"], doc["params"]["wide_scale"]) == (
+                "default",
+                1,
+                2.0,
+            )
+        finally:
+            await survey.cancel("test over")
+            await ptu.close()
