@@ -79,7 +79,14 @@ from daemon.regimes import (
 )
 from daemon.scene import Scene
 from daemon.vision.interest import InterestPoint
-from daemon.vision.params import DEFAULT, PAPER, UNCOMMON, VisionParams, with_settings
+from daemon.vision.params import (
+    DEFAULT,
+    PAPER,
+    UNCOMMON,
+    VisionParams,
+    add_settings_argument,
+    with_settings,
+)
 
 Method = Callable[[Scene, np.random.Generator], list[InterestPoint]]
 
@@ -404,14 +411,7 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="scenes from bench.heldout, an independent generator (no seed case)",
     )
-    ap.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        dest="settings",
-        help="change every pipeline profile alike (repeatable), e.g. --set uncommon=surprisal",
-    )
+    add_settings_argument(ap, "every pipeline profile alike")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     generators, descriptions = (

@@ -68,7 +68,14 @@ from daemon.imageio import ImageError, as_bgr8, read_image
 from daemon.products import analyze_image, input_points
 from daemon.regimes import jpeg_quality, jpeg_round_trip
 from daemon.vision.interest import InterestPoint
-from daemon.vision.params import DEFAULT, PAPER, UNCOMMON, VisionParams, with_settings
+from daemon.vision.params import (
+    DEFAULT,
+    PAPER,
+    UNCOMMON,
+    VisionParams,
+    add_settings_argument,
+    with_settings,
+)
 
 HIT_SHARE = 0.015
 """Hit radius, as a share of the image diagonal."""
@@ -430,14 +437,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--jpeg", type=_quality, default=None, metavar="Q", help="repeat looks through JPEG at Q"
     )
-    ap.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        dest="settings",
-        help="change every pipeline profile alike (repeatable), e.g. --set uncommon=surprisal",
-    )
+    add_settings_argument(ap, "every pipeline profile alike")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     try:  # a mistyped setting is refused whether or not the data is here

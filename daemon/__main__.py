@@ -24,7 +24,7 @@ from .ptu.emulator import Ptu46Emulator
 from .ptu.models import MODELS
 from .ptu.ptyserver import BANNER, PtyEmulatorServer, parse_fault, serve
 from .router import run_router
-from .vision.params import PROFILES, profile, with_settings
+from .vision.params import PROFILES, add_settings_argument, profile, with_settings
 from .zenohlog import route_zenoh_logs
 
 _LOGGER = logging.getLogger(__name__)
@@ -103,15 +103,7 @@ def _analyze_parser(sub: argparse._SubParsersAction) -> None:
     )
     ap.add_argument("--profile", choices=sorted(PROFILES), default="default")
     ap.add_argument("--top", type=int, default=None, metavar="N", help="number of interest points")
-    ap.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        dest="settings",
-        help="change one parameter of the profile (repeatable; names as in result.json's "
-        "params), e.g. --set uncommon=surprisal",
-    )
+    add_settings_argument(ap, "the profile")
     ap.add_argument(
         "--downsample",
         type=float,

@@ -8,6 +8,7 @@ one benchmark run.
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import difflib
 import math
@@ -418,3 +419,17 @@ def _describe(kind: Any) -> str:
     if origin in (types.UnionType, typing.Union):
         return " or ".join("none" if a is type(None) else a.__name__ for a in args)
     return kind.__name__
+
+
+def add_settings_argument(parser: argparse.ArgumentParser, what: str) -> None:
+    """``--set NAME=VALUE`` (repeatable, into ``settings``) for a command whose ``what``
+    (e.g. "the profile") it changes: one spelling for the CLI and every benchmark."""
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        dest="settings",
+        help=f"change a parameter of {what} (repeatable; names as in result.json's params), "
+        "e.g. --set uncommon=surprisal",
+    )
