@@ -79,14 +79,7 @@ from daemon.regimes import (
 )
 from daemon.scene import Scene
 from daemon.vision.interest import InterestPoint
-from daemon.vision.params import (
-    DEFAULT,
-    PAPER,
-    UNCOMMON,
-    VisionParams,
-    add_settings_argument,
-    with_settings,
-)
+from daemon.vision.params import PAPER, VisionParams, add_settings_argument, compared, with_settings
 
 Method = Callable[[Scene, np.random.Generator], list[InterestPoint]]
 
@@ -121,9 +114,7 @@ def methods(settings: Sequence[str] = ()) -> dict[str, Method]:
     """Every method in the run; ``settings`` (``NAME=VALUE``, ``params.with_settings``) change
     each pipeline profile alike, the baselines not at all."""
     return {
-        "default": pipeline_method(with_settings(DEFAULT, list(settings))),
-        "paper": pipeline_method(with_settings(PAPER, list(settings))),
-        "uncommon": pipeline_method(with_settings(UNCOMMON, list(settings))),
+        **{name: pipeline_method(p) for name, p in compared(list(settings)).items()},
         "spectral-residual": lambda s, _r: points_from_map(spectral_residual(s.image), False),
         "colour-rarity": lambda s, _r: points_from_map(colour_rarity(s.image), True),
         "rx-anomaly": lambda s, _r: points_from_map(rx_anomaly(s.image), True),

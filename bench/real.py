@@ -68,14 +68,7 @@ from daemon.imageio import ImageError, as_bgr8, read_image
 from daemon.products import analyze_image, input_points
 from daemon.regimes import jpeg_quality, jpeg_round_trip
 from daemon.vision.interest import InterestPoint
-from daemon.vision.params import (
-    DEFAULT,
-    PAPER,
-    UNCOMMON,
-    VisionParams,
-    add_settings_argument,
-    with_settings,
-)
+from daemon.vision.params import VisionParams, add_settings_argument, compared
 
 HIT_SHARE = 0.015
 """Hit radius, as a share of the image diagonal."""
@@ -121,9 +114,7 @@ def methods(settings: Sequence[str] = ()) -> dict[str, Method]:
         return lambda img, _r: points_from_map(saliency(img), blur)
 
     return {
-        "default": pipeline_method(with_settings(DEFAULT, list(settings))),
-        "paper": pipeline_method(with_settings(PAPER, list(settings))),
-        "uncommon": pipeline_method(with_settings(UNCOMMON, list(settings))),
+        **{name: pipeline_method(p) for name, p in compared(list(settings)).items()},
         "spectral-residual": from_map(lambda img: spectral_residual(as_bgr8(img)), False),
         "colour-rarity": from_map(colour_rarity, True),
         "rx-anomaly": from_map(lambda img: rx_anomaly(as_bgr8(img)), True),

@@ -433,3 +433,11 @@ def add_settings_argument(parser: argparse.ArgumentParser, what: str) -> None:
         help=f"change a parameter of {what} (repeatable; names as in result.json's params), "
         "e.g. --set uncommon=surprisal",
     )
+
+
+def compared(settings: list[str]) -> dict[str, VisionParams]:
+    """The three distinct profiles a benchmark compares (``field`` is ``default``'s old
+    name), each with ``settings`` applied (:func:`with_settings`)."""
+    return {
+        name: with_settings(PROFILES[name], settings) for name in ("default", "paper", "uncommon")
+    }
