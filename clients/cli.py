@@ -35,6 +35,7 @@ from protocol.messages import (
     SurveyStart,
     SurveyStatus,
     TakeControl,
+    check_setting,
 )
 from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
@@ -119,11 +120,20 @@ async def _goto(client: RigClient, args: argparse.Namespace) -> tuple[Report, st
     return report, f"at pan {s.pan:+.3f}, tilt {s.tilt:+.3f}"
 
 
+def _setting(text: str) -> str:
+    """argparse's reading of ``--set``: the protocol's form check, as a usage error."""
+    try:
+        return check_setting(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 async def _survey(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
     await client.ensure_control(args.take)
     progress = client.subscribe(client.keys.progress, SurveyProgress)
     results = client.subscribe(client.keys.result, InterestResult)
-    request = SurveyStart(args.rows, args.cols, args.downsample, args.profile)
+    settings = None if args.settings is None else tuple(args.settings)
+    request = SurveyStart(args.rows, args.cols, args.downsample, args.profile, settings=settings)
 
     def show(p: SurveyProgress) -> None:
         count = f" {p.done}/{p.total}" if p.total else ""
@@ -293,6 +303,23 @@ def register(sub: argparse._SubParsersAction) -> None:
     survey.add_argument("--cols", type=int, help="mosaic columns")
     survey.add_argument("--downsample", type=float, help="tile reduction factor")
     survey.add_argument("--profile", help="science profile: paper or default")
+    given = survey.add_mutually_exclusive_group()
+    given.add_argument(
+        "--set",
+        action="append",
+        type=_setting,
+        dest="settings",
+        metavar="NAME=VALUE",
+        help="change a parameter of the profile for this station (repeatable; the rig checks "
+        "it before it moves), e.g. --set uncommon=surprisal; default: the rig's survey.settings",
+    )
+    given.add_argument(
+        "--no-settings",
+        action="store_const",
+        const=[],
+        dest="settings",
+        help="none of the rig's configured survey.settings, the profile as it is",
+    )
     fetch = command("fetch", _fetch, "download one archived product")
     fetch.add_argument("session")
     fetch.add_argument("product", help="a path inside the session, e.g. st01-300m/mosaic.png")

@@ -44,7 +44,7 @@ from .register import register
 from .report import write_report
 from .rig import Rig
 from .site import Orientation
-from .vision.params import PROFILES
+from .vision.params import PROFILES, with_settings
 from .worker import VisionWorker, WorkerError
 
 __all__ = ["ANALYSE", "Survey", "SurveyBusyError", "SurveyState", "SurveyTelemetry"]
@@ -156,6 +156,7 @@ class Survey:
             cols=cols if req.cols is None else req.cols,
             downsample=c.downsample if req.downsample is None else req.downsample,
             profile=c.profile if req.profile is None else req.profile,
+            settings=c.settings if req.settings is None else req.settings,
         )
         geometry = self._plan(req)
         self._last_centre = (geometry.pan0, geometry.tilt0)
@@ -164,7 +165,7 @@ class Survey:
             ap.session, ap.index = self.archive.new_session(), 0
             self.memory.clear()
         ap.index += 1
-        plan = geometry.to_plan(profile=req.profile, settings=list(c.settings))
+        plan = geometry.to_plan(profile=req.profile, settings=list(req.settings or ()))
         self.station = self.archive.new_station(
             ap.session,
             ap.index,
@@ -181,7 +182,7 @@ class Survey:
         )
         self.state, self.last_error, self._result = SurveyState.SURVEYING, "", None
         self._task = asyncio.create_task(
-            self._run(geometry, req.profile), name="cyborgd.survey.run"
+            self._run(geometry, req.profile, req.settings or ()), name="cyborgd.survey.run"
         )
         return self.station_id
 
@@ -192,6 +193,10 @@ class Survey:
     def _plan(self, req: SurveyStart) -> MosaicGeometry:
         if req.profile not in PROFILES:
             raise ValueError(f"unknown profile {req.profile!r}; known: {', '.join(PROFILES)}")
+        try:  # before anything moves: a typo is an error now, not a failed station later
+            with_settings(PROFILES[req.profile], list(req.settings or ()))
+        except ValueError as exc:
+            raise ValueError(f"settings: {exc}") from None
         ap = self._approach
         # The centre is always a decision: asked for, aimed at, surveyed before, or set up.
         default = ap.aim or self._last_centre or (self.cfg.pan0, self.cfg.tilt0)
@@ -341,7 +346,7 @@ class Survey:
     ) -> None:
         self.tel.progress(SurveyProgress(self.station_id, stage, done, total, eta))
 
-    async def _run(self, geometry: MosaicGeometry, profile: str) -> None:
+    async def _run(self, geometry: MosaicGeometry, profile: str, settings: tuple[str, ...]) -> None:
         station = self.station
         assert station is not None
         t0 = time.perf_counter()
@@ -361,7 +366,7 @@ class Survey:
                 profile,
                 "mosaic.png",
                 prior,
-                self.cfg.settings,
+                settings,
             )
             timing["analysis_s"] = self._analysis_estimate = time.perf_counter() - ta
             station.publish_analysis()

@@ -17,6 +17,7 @@ from typing import Any, ClassVar, Generic, Self, TypeVar
 from .errors import DecodeError, InvalidFieldError
 
 __all__ = [
+    "MAX_SETTINGS",
     "MAX_TEXT",
     "MESSAGES",
     "REQUESTS",
@@ -50,6 +51,7 @@ __all__ = [
     "SurveyStart",
     "SurveyStatus",
     "TakeControl",
+    "check_setting",
     "clip",
     "message_from",
 ]
@@ -137,6 +139,37 @@ class Message:
 
     def to_body(self) -> dict[str, Any]:
         return asdict(self)
+
+
+MAX_SETTINGS = 32
+"""Most ``NAME=VALUE`` settings one survey may carry (the profile has fewer fields)."""
+_SETTING_TEXT = 200
+
+
+def check_setting(text: str) -> str:
+    """``text`` if it has the form of a parameter setting, ``NAME=VALUE`` with a name of
+    letters, digits and underscores, else ValueError; what the name and value mean is the
+    rig's to judge (``daemon.vision.params.with_settings``).
+
+    >>> check_setting("uncommon=surprisal")
+    'uncommon=surprisal'
+    >>> check_setting("blur")
+    Traceback (most recent call last):
+    ...
+    ValueError: setting 'blur' is not NAME=VALUE
+    """
+    name, sep, value = text.partition("=")
+    name = name.strip()
+    if (
+        not sep
+        or not name
+        or not value.strip()
+        or len(text) > _SETTING_TEXT
+        or not name.replace("_", "a").isalnum()
+        or not name.isascii()
+    ):
+        raise ValueError(f"setting {clip(text, 60)!r} is not NAME=VALUE")
+    return text
 
 
 def _in(name: str, value: float, lo: float, hi: float) -> None:
@@ -390,6 +423,11 @@ class SurveyStart(Request[Ack]):
     the last station's centre (a survey again), else the rig's configured centre: never
     wherever the head happened to stop. Other fields left out (None) take the rig's
     configured values.
+
+    ``settings`` (2.2) change the profile's parameters for this station alone, as
+    ``NAME=VALUE`` texts (``cyborgd analyze --set``); left out, the rig's configured
+    ``survey.settings`` apply, and ``()`` asks for none. Their form is checked here; the rig
+    checks the names and values against the profile before it moves.
     """
 
     KIND: ClassVar[str] = "survey.start"
@@ -401,6 +439,7 @@ class SurveyStart(Request[Ack]):
     profile: str | None = None
     pan0: float | None = None
     tilt0: float | None = None
+    settings: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
         if self.rows is not None:
@@ -409,6 +448,12 @@ class SurveyStart(Request[Ack]):
             _in("cols", self.cols, 1, 32)
         if self.downsample is not None:
             _in("downsample", self.downsample, 1.0, 16.0)
+        if self.settings is not None:
+            object.__setattr__(self, "settings", tuple(self.settings))
+            if len(self.settings) > MAX_SETTINGS:
+                raise ValueError(f"at most {MAX_SETTINGS} settings, got {len(self.settings)}")
+            for item in self.settings:
+                check_setting(item)
 
 
 @dataclass(frozen=True)

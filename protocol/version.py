@@ -3,6 +3,7 @@
 2.0: commands carry the caller's name in their key (``cmd/<client>/<verb>``) and the rig
 binds control to it; a 1.x peer is refused with "protocol 2 required".
 2.1: interest points carry azimuth and elevation; a status, the result awaiting a choice.
+2.2: a survey start may carry the station's parameter settings (``NAME=VALUE``).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ BUILD = importlib.metadata.version("cyborg-astrobiologist")
 """This installation's version (``cyborgd --version``, ``cyborg --version``, ``hello``)."""
 
 PROTOCOL_MAJOR = 2
-PROTOCOL_MINOR = 1
+PROTOCOL_MINOR = 2
 
 
 def compatible(major: int) -> bool:

@@ -205,3 +205,27 @@ def test_access_list_lets_each_name_query_only_its_own_commands() -> None:
     assert [r["id"] for r in puts_in] == ["rig"]
     assert {"rules": ["rig"], "subjects": ["rig", "rig-user"]} in acl["policies"]
     assert not any(s.get("link_protocols") for s in acl["subjects"])  # a router has no socket
+
+
+def test_survey_settings_travel_as_name_value_texts_and_bad_forms_are_refused() -> None:
+    """2.2: a survey start may carry the station's settings; the protocol checks their
+    form (the rig, their meaning). Left out, they are None (the rig's configured ones)."""
+    start = SurveyStart(profile="paper", settings=("uncommon=surprisal", "blur=8"))
+    back = message_from(start.KIND, decode(encode(start.KIND, start.to_body())).body)
+    assert back == start and back.settings == ("uncommon=surprisal", "blur=8")
+    assert message_from("survey.start", {}).settings is None
+    assert message_from("survey.start", {"settings": []}).settings == ()
+    hostile = {
+        "not a list": "blur=8",
+        "not text": [8],
+        "no value": ["blur="],
+        "no name": ["=8"],
+        "no equals": ["blur"],
+        "odd name": ["bl ur=8"],
+        "non-ascii name": ["blür=8"],
+        "too long": ["blur=" + "8" * 300],
+        "too many": ["blur=8"] * 33,
+    }
+    for value in hostile.values():
+        with pytest.raises(InvalidFieldError, match="setting"):
+            message_from("survey.start", {"settings": value})

@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import errno
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -247,6 +248,49 @@ async def test_the_configured_settings_reach_the_worker_and_the_record(tmp_path:
                 1,
                 2.0,
             )
+        finally:
+            await survey.cancel("test over")
+            await ptu.close()
+
+
+async def test_a_request_s_settings_replace_the_configured_ones_and_bad_ones_move_nothing(
+    tmp_path: Path,
+) -> None:
+    """2.2: ``survey.start`` may carry settings for its station alone (replacing the
+    configured ones; ``()`` means none); a mistyped one is refused by name before the head
+    moves or a station is opened."""
+    ptu = open_ptu("emu://?time_scale=50")
+    rig = Rig(ptu, lambda pose: open_camera("sim://outcrop?seed=3", pose=pose))
+    async with VisionWorker() as worker:
+        await ptu.open()
+        archive = Archive(tmp_path / "archive", "t")
+        archive.open()
+        config = SurveyConfig(settings=("top_n=1",))
+        survey = Survey(rig, worker, archive, config, hfov=30.0, telemetry=Recorder().telemetry())
+        try:
+            before = await ptu.position()
+            for bad, why in (
+                (("blurr=8",), "unknown parameter 'blurr' (did you mean blur?)"),
+                (("top_n=-1",), "blur must be > 0; top_n, cooc_sigma, presmooth >= 0"),
+                (("uncommon=weird",), "uncommon: cannot read 'weird'"),
+            ):
+                with pytest.raises(ValueError, match=re.escape(f"settings: {why}")):
+                    survey.start(SurveyStart(rows=1, cols=2, settings=bad), "tester")
+            assert survey.station is None and not survey.running
+            assert not any((tmp_path / "archive").rglob("manifest.json"))
+            after = await ptu.position()
+            assert (after.pan_pos, after.tilt_pos) == (before.pan_pos, before.tilt_pos)
+
+            survey.start(SurveyStart(rows=1, cols=2, settings=("top_n=2",)), "tester")
+            await survey._task
+            assert len(survey._result.points) == 2
+            assert survey.station.manifest["plan"]["settings"] == ["top_n=2"]
+            survey.start(SurveyStart(rows=1, cols=2, settings=()), "tester")
+            await survey._task
+            assert len(survey._result.points) == 3
+            assert survey.station.manifest["plan"]["settings"] == []
+            doc = json.loads((survey.station.folder / "analysis" / "result.json").read_text())
+            assert doc["params"]["top_n"] == 3
         finally:
             await survey.cancel("test over")
             await ptu.close()

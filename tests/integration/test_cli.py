@@ -88,12 +88,36 @@ async def test_scripts_drive_a_station_and_fetch_its_products(
     code, chose, _ = await cyborg(router, "choose", result["station"], "2")
     assert code == 0 and "60 m" in chose["detail"]
 
+    # A parameter tried for one station (2.2): checked by the rig before the head moves.
+    code, refused, err = await cyborg(
+        router, "survey", "--rows", "1", "--cols", "2", "--set", "blurr=8"
+    )
+    assert code == 1 and refused["result"] == "REJECTED" and "did you mean blur?" in err
+    code, one, err = await cyborg(
+        router, "survey", "--rows", "1", "--cols", "2", "--downsample", "4", "--set", "top_n=1"
+    )
+    assert code == 0 and len(one["points"]) == 1, err
+    session, station = one["station"].split("/")
+    plan = json.loads((archive / session / station / "manifest.json").read_text())["plan"]
+    assert plan["settings"] == ["top_n=1"]
+
 
 async def test_an_absent_rig_is_reported_as_unreachable(router: str) -> None:
     code, report, err = await cyborg(router, "status", "--wait-rig", "0.5", rig="nobody")
     assert code == 3 and "nobody" in report["error"] and "not on the bus" in err
     code, report, _ = await cyborg("tcp/127.0.0.1:1", "status")
     assert code == 3 and "cannot reach tcp/127.0.0.1:1" in report["error"]
+
+
+async def test_a_malformed_setting_is_a_usage_error_before_any_connection() -> None:
+    proc = await asyncio.create_subprocess_exec(
+        sys.executable,
+        *("-m", "clients", "survey", "--set", "blur", "--connect", "tcp/127.0.0.1:1"),
+        stdout=asyncio.subprocess.PIPE,
+        stderr=asyncio.subprocess.PIPE,
+    )
+    _, err = await proc.communicate()
+    assert proc.returncode == 2 and "setting 'blur' is not NAME=VALUE" in err.decode()
 
 
 async def test_call_sends_any_command_by_its_verb(router: str, daemon) -> None:

@@ -202,6 +202,37 @@ async def test_malformed_and_wrong_version_requests_get_error_acks(
     assert state.tilt == pytest.approx(-2.0, abs=0.06)
 
 
+async def test_a_survey_s_settings_are_checked_before_anything_moves(
+    daemon, client: RigClient
+) -> None:
+    """2.2: a remote operator may try a parameter for one station (``cyborg survey --set``);
+    a malformed setting is a protocol error, a mistyped or out-of-range one is refused by
+    name, and neither moves the head or opens a station."""
+    await client.wait_alive()
+    states = client.subscribe(client.keys.ptu_state, PtuState, maxsize=1)
+    await client.command(TakeControl())
+    before = await _state(client, states)
+    malformed = encode("survey.start", {"settings": ["blur"]}, src="tester")
+    reply = await client.call_raw("survey/start", malformed)
+    assert reply.result == "ERROR" and "is not NAME=VALUE" in reply.detail
+    for bad, why in (
+        ("blurr=8", "unknown parameter 'blurr' (did you mean blur?)"),
+        ("top_n=many", "top_n: cannot read 'many' as int"),
+    ):
+        reply = await client.call(SurveyStart(rows=1, cols=2, settings=(bad,)))
+        assert reply.result == "REJECTED", reply
+        assert reply.detail == f"survey/start: settings: {why}"
+    status = await client.call(SurveyStatus())
+    assert status.state == "idle" and status.station == ""
+    after = await _state(client, states)
+    assert (after.pan, after.tilt) == (before.pan, before.tilt)
+    progress = client.subscribe(client.keys.progress, SurveyProgress)
+    results = client.subscribe(client.keys.result, InterestResult)
+    request = SurveyStart(rows=1, cols=2, settings=("top_n=1",))
+    result = await run_station(client, progress, results, request)
+    assert len(result.points) == 1
+
+
 async def test_control_one_client_at_a_time(
     daemon, client: RigClient, other_client: RigClient
 ) -> None:
