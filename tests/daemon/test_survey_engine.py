@@ -4,6 +4,7 @@ was written."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import errno
 import json
@@ -38,8 +39,9 @@ class Recorder:
         )
 
 
-@pytest.fixture
-async def engine(tmp_path: Path):
+@contextlib.asynccontextmanager
+async def _engine(tmp_path: Path, config: SurveyConfig | None = None):
+    """A survey engine on the emulated PTU, the simulated outcrop and a real worker."""
     ptu = open_ptu("emu://?time_scale=50")
     rig = Rig(ptu, lambda pose: open_camera("sim://outcrop?seed=3", pose=pose))
     async with VisionWorker() as worker:
@@ -47,12 +49,19 @@ async def engine(tmp_path: Path):
         rec = Recorder()
         archive = Archive(tmp_path / "archive", "t")
         archive.open()
-        survey = Survey(rig, worker, archive, SurveyConfig(), hfov=30.0, telemetry=rec.telemetry())
+        config = config or SurveyConfig()
+        survey = Survey(rig, worker, archive, config, hfov=30.0, telemetry=rec.telemetry())
         try:
             yield survey, rec, archive
         finally:
             await survey.cancel("test over")
             await ptu.close()
+
+
+@pytest.fixture
+async def engine(tmp_path: Path):
+    async with _engine(tmp_path) as parts:
+        yield parts
 
 
 class DiskFull:
@@ -229,28 +238,18 @@ async def test_a_station_is_registered_to_the_one_it_was_aimed_from(engine) -> N
 async def test_the_configured_settings_reach_the_worker_and_the_record(tmp_path: Path) -> None:
     """``survey.settings`` change the profile the worker analyses with: here one point
     instead of three; the station's plan and ``result.json`` say what was used."""
-    ptu = open_ptu("emu://?time_scale=50")
-    rig = Rig(ptu, lambda pose: open_camera("sim://outcrop?seed=3", pose=pose))
-    async with VisionWorker() as worker:
-        await ptu.open()
-        archive = Archive(tmp_path / "archive", "t")
-        archive.open()
-        config = SurveyConfig(settings=("top_n=1", "wide_scale=2"))
-        survey = Survey(rig, worker, archive, config, hfov=30.0, telemetry=Recorder().telemetry())
-        try:
-            survey.start(SurveyStart(rows=1, cols=2), "tester")
-            await survey._task
-            assert len(survey._result.points) == 1
-            assert survey.station.manifest["plan"]["settings"] == ["top_n=1", "wide_scale=2"]
-            doc = json.loads((survey.station.folder / "analysis" / "result.json").read_text())
-            assert (doc["profile"], doc["params"]["top_n"], doc["params"]["wide_scale"]) == (
-                "default",
-                1,
-                2.0,
-            )
-        finally:
-            await survey.cancel("test over")
-            await ptu.close()
+    config = SurveyConfig(settings=("top_n=1", "wide_scale=2"))
+    async with _engine(tmp_path, config) as (survey, _, _):
+        survey.start(SurveyStart(rows=1, cols=2), "tester")
+        await survey._task
+        assert len(survey._result.points) == 1
+        assert survey.station.manifest["plan"]["settings"] == ["top_n=1", "wide_scale=2"]
+        doc = json.loads((survey.station.folder / "analysis" / "result.json").read_text())
+        assert (doc["profile"], doc["params"]["top_n"], doc["params"]["wide_scale"]) == (
+            "default",
+            1,
+            2.0,
+        )
 
 
 async def test_a_request_s_settings_replace_the_configured_ones_and_bad_ones_move_nothing(
@@ -259,38 +258,28 @@ async def test_a_request_s_settings_replace_the_configured_ones_and_bad_ones_mov
     """2.2: ``survey.start`` may carry settings for its station alone (replacing the
     configured ones; ``()`` means none); a mistyped one is refused by name before the head
     moves or a station is opened."""
-    ptu = open_ptu("emu://?time_scale=50")
-    rig = Rig(ptu, lambda pose: open_camera("sim://outcrop?seed=3", pose=pose))
-    async with VisionWorker() as worker:
-        await ptu.open()
-        archive = Archive(tmp_path / "archive", "t")
-        archive.open()
-        config = SurveyConfig(settings=("top_n=1",))
-        survey = Survey(rig, worker, archive, config, hfov=30.0, telemetry=Recorder().telemetry())
-        try:
-            before = await ptu.position()
-            for bad, why in (
-                (("blurr=8",), "unknown parameter 'blurr' (did you mean blur?)"),
-                (("top_n=-1",), "blur must be > 0; top_n, cooc_sigma, presmooth >= 0"),
-                (("uncommon=weird",), "uncommon: cannot read 'weird'"),
-            ):
-                with pytest.raises(ValueError, match=re.escape(f"settings: {why}")):
-                    survey.start(SurveyStart(rows=1, cols=2, settings=bad), "tester")
-            assert survey.station is None and not survey.running
-            assert not any((tmp_path / "archive").rglob("manifest.json"))
-            after = await ptu.position()
-            assert (after.pan_pos, after.tilt_pos) == (before.pan_pos, before.tilt_pos)
+    async with _engine(tmp_path, SurveyConfig(settings=("top_n=1",))) as (survey, _, _):
+        ptu = survey.rig.ptu
+        before = await ptu.position()
+        for bad, why in (
+            (("blurr=8",), "unknown parameter 'blurr' (did you mean blur?)"),
+            (("top_n=-1",), "blur must be > 0; top_n, cooc_sigma, presmooth >= 0"),
+            (("uncommon=weird",), "uncommon: cannot read 'weird'"),
+        ):
+            with pytest.raises(ValueError, match=re.escape(f"settings: {why}")):
+                survey.start(SurveyStart(rows=1, cols=2, settings=bad), "tester")
+        assert survey.station is None and not survey.running
+        assert not any((tmp_path / "archive").rglob("manifest.json"))
+        after = await ptu.position()
+        assert (after.pan_pos, after.tilt_pos) == (before.pan_pos, before.tilt_pos)
 
-            survey.start(SurveyStart(rows=1, cols=2, settings=("top_n=2",)), "tester")
-            await survey._task
-            assert len(survey._result.points) == 2
-            assert survey.station.manifest["plan"]["settings"] == ["top_n=2"]
-            survey.start(SurveyStart(rows=1, cols=2, settings=()), "tester")
-            await survey._task
-            assert len(survey._result.points) == 3
-            assert survey.station.manifest["plan"]["settings"] == []
-            doc = json.loads((survey.station.folder / "analysis" / "result.json").read_text())
-            assert doc["params"]["top_n"] == 3
-        finally:
-            await survey.cancel("test over")
-            await ptu.close()
+        survey.start(SurveyStart(rows=1, cols=2, settings=("top_n=2",)), "tester")
+        await survey._task
+        assert len(survey._result.points) == 2
+        assert survey.station.manifest["plan"]["settings"] == ["top_n=2"]
+        survey.start(SurveyStart(rows=1, cols=2, settings=()), "tester")
+        await survey._task
+        assert len(survey._result.points) == 3
+        assert survey.station.manifest["plan"]["settings"] == []
+        doc = json.loads((survey.station.folder / "analysis" / "result.json").read_text())
+        assert doc["params"]["top_n"] == 3
