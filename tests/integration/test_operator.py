@@ -12,7 +12,7 @@ import pytest
 from bench.browser import MISSING, Browser, chromium
 from clients.launch import operator as launch_operator
 from clients.rigclient import RigClient
-from protocol.messages import PtuState, TakeControl
+from protocol.messages import PtuState, ReleaseControl, TakeControl
 
 pytestmark = [pytest.mark.timeout(240), pytest.mark.skipif(bool(MISSING), reason=MISSING or "")]
 
@@ -149,3 +149,22 @@ async def test_operator_refuses_plainly(
     assert reply["ok"] is False and reply["result"] == "REJECTED" and "intruder" in reply["detail"]
     bad = await asyncio.to_thread(browser.js, post, "{not json")
     assert bad["ok"] is False and bad["result"] == "ERROR"
+    # A station's settings typed on the page reach the rig, which names what it refuses.
+    await other_client.call(ReleaseControl())
+    await asyncio.to_thread(browser.click, "#take")
+    await asyncio.to_thread(
+        browser.wait, "document.getElementById('reply').textContent.startsWith('control/take')"
+    )
+    type_in = "const s = document.getElementById('settings'); s.value = arguments[0];"
+    await asyncio.to_thread(browser.js, type_in, " top_n=2   blurr=8 ")
+    await asyncio.to_thread(browser.click, "#survey")
+    reply = await asyncio.to_thread(
+        browser.wait,
+        "document.getElementById('reply').textContent.startsWith('survey/start') && "
+        "document.getElementById('reply').textContent",
+        30.0,
+    )
+    assert reply == (
+        "survey/start: REJECTED: survey/start: settings: unknown parameter 'blurr' "
+        "(did you mean blur?)"
+    ), reply

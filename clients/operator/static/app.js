@@ -153,9 +153,15 @@ async function browse(session) {
 }
 
 window.addEventListener("DOMContentLoaded", () => {
-  const buttons = { halt: "ptu/halt", survey: "survey/start", cancel: "survey/cancel", home: "ptu/home",
+  const buttons = { halt: "ptu/halt", cancel: "survey/cancel", home: "ptu/home",
                     take: "control/take", release: "control/release" };
   for (const [id, verb] of Object.entries(buttons)) $(id).onclick = () => send(verb);
+  // A station's own settings (protocol 2.2), NAME=VALUE separated by spaces; none typed: the
+  // rig's configured ones. The rig checks them, and says why it refuses.
+  $("survey").onclick = () => {
+    const settings = $("settings").value.split(/\s+/).filter(Boolean);
+    send("survey/start", settings.length ? { settings } : {});
+  };
   $("choose0").onclick = () => state && state.result && send("target/choose", { station: state.result.station, rank: 0 });
   $("layer").onchange = showLayer;
   $("view").onchange = () => send("view", $("view").value ? JSON.parse($("view").value) : {});
