@@ -93,6 +93,40 @@ def test_a_thin_sky_lit_shadow_stays_shade() -> None:
     assert shade[80:82, 30:170].min() > 0.6
 
 
+def crack_and_overcast_lens(seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Red rock with an oblique 3 px crack (30 % of the light) and an overcast ledge shadow,
+    a lens 8 px thick tapering to points at both ends (45 %): both dark and untinted."""
+    img = rock(RED_ROCK, shape=(120, 240), seed=seed)
+    yy, xx = np.mgrid[:120, :240]
+    crack = (np.abs(yy - (0.6 * xx - 10)) < 1.5) & (xx > 30) & (xx < 110)
+    img[crack] *= 0.3
+    thick = np.clip(np.sin(np.pi * (xx - 130) / 100), 0, 1) ** 0.7 * ((xx >= 130) & (xx < 230))
+    lens = (yy >= 60) & (yy < 60 + 8 * thick)
+    img[lens] *= 0.45
+    return u8(img), crack, lens
+
+
+def test_a_crack_blurred_as_wide_as_a_shadow_is_still_not_shade() -> None:
+    """At the fine scale the 3 px crack reads as 6-7 px of shade and survives the opening;
+    at its own scale no disc fits in it. The lens holds one, so it stays shade out to the tips
+    of its tapers, where it is as thin as the crack."""
+    img, crack, lens = crack_and_overcast_lens()
+    shade = shadow_likelihood(img, DEFAULT)
+    xx = np.mgrid[:120, :240][1]
+    tapers = lens & ((xx < 145) | (xx > 215))
+    assert shade[crack].mean() < 0.3
+    assert shade[lens].mean() > 0.75
+    assert shade[tapers].mean() > 0.6
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_default_profile_finds_a_crack_beside_an_overcast_shadow(seed: int) -> None:
+    img, crack, _ = crack_and_overcast_lens(seed)
+    top = analyze(img, DEFAULT).points[0]
+    yy, xx = np.nonzero(crack)
+    assert np.hypot(yy - top.y, xx - top.x).min() < 4, (top.x, top.y)
+
+
 def test_a_wide_ledge_shadow_is_shade_and_a_round_hollow_is_not() -> None:
     """Shade thicker than the surround (a ledge's shadow seen from 60 m) is found at the
     second scale where it runs along its ledge; a round hollow in the same shade, the
