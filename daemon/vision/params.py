@@ -327,12 +327,12 @@ view counts at half its rarity), a second, four times wider scale of the uncommo
 (``wide_scale``: a compact area of rare colour scores as a whole), the discounts on bands and on
 patches hugging the frame (``interest``) and a light pre-smoothing of what is segmented (sensor
 noise flipped small classes in and out between looks): what the rig uses unless told otherwise.
-``bench/real.py`` (347 real labelled images of five kinds), top-1 / any of 3 / repeat@1: 63.7 /
-80.1 / 95.7 %, against 36.6 / 65.1 / 81.0 for ``uncommon`` and 37.2 / 57.1 for the best
-baselines. ``bench/quality.py``: every goal met on tiny spots (top-1 96.7 %, any of 3 98.3 %) and
-on the seed's cliff (top-1 100 %); veins 90.8 / 95.8 % (spectral residual 90.8 / 99.2), large
-targets 86.7 / 96.7 %; repeat@1 90.8-99.2 % with a target, 88.3 % with none; on the held-out
-generator (``bench.quality --heldout``) large targets 92.5 / 100 %, veins 72.5 / 87.5 %. About 3.5
+``bench/real.py`` (347 real labelled images of five kinds), top-1 / any of 3 / repeat@1: 64.0 /
+80.4 / 95.4 %, against 36.6 / 65.1 / 81.0 for ``uncommon`` and 37.2 / 57.1 for the best
+baselines. ``bench/quality.py``: every goal met on tiny spots (top-1 96.7 %, any of 3 98.3 %), on
+the seed's cliff (top-1 100 %) and on veins (95.0 / 97.5 %; spectral residual 90.8 / 99.2), large
+targets 86.7 / 96.7 %; repeat@1 94.2-99.2 % with a target, 88.3 % with none; on the held-out
+generator (``bench.quality --heldout``) large targets 92.5 / 100 %, veins 82.5 / 93.3 %. About 3.3
 times the time of ``uncommon`` at its working size, still milliseconds."""
 
 PROFILES: dict[str, VisionParams] = {
