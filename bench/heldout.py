@@ -38,7 +38,7 @@ import numpy as np
 
 from daemon.scene import Scene, Target
 
-__all__ = ["DESCRIPTIONS", "REGIMES"]
+__all__ = ["DESCRIPTIONS", "REGIMES", "SEED_SHAPE", "seed_cliff"]
 
 SHAPE = (216, 288)
 _SS = 4
@@ -73,11 +73,27 @@ def _rock_colour(rng: np.random.Generator) -> np.ndarray:
     return _hsv(rng.uniform(150, 220), rng.uniform(0.05, 0.2), rng.uniform(0.35, 0.7))
 
 
-def _strata(rng: np.random.Generator) -> tuple[np.ndarray, list[np.ndarray]]:
+def _pale_colour(rng: np.random.Generator) -> np.ndarray:
+    """One bed of a pale gypsum and clay cliff: white gypsum, buff or cream marl, grey or
+    greenish-grey clay."""
+    kind = rng.random()
+    if kind < 0.25:
+        return _hsv(rng.uniform(20, 50), rng.uniform(0.0, 0.06), rng.uniform(0.82, 0.92))
+    if kind < 0.7:
+        return _hsv(rng.uniform(18, 45), rng.uniform(0.06, 0.2), rng.uniform(0.6, 0.85))
+    return _hsv(rng.uniform(60, 200), rng.uniform(0.02, 0.1), rng.uniform(0.5, 0.75))
+
+
+def _strata(
+    rng: np.random.Generator,
+    shape: tuple[int, int] = SHAPE,
+    beds: tuple[int, int] = (3, 8),
+    colour: Callable[[np.random.Generator], np.ndarray] = _rock_colour,
+) -> tuple[np.ndarray, list[np.ndarray]]:
     """Lit, textured strata: the float BGR image and the contacts (row of each, per column)."""
-    rows, cols = SHAPE
+    rows, cols = shape
     xs = np.arange(cols, dtype=np.float32)
-    n = int(rng.integers(3, 8))
+    n = int(rng.integers(*beds))
     fold = rng.uniform(2, 10) * np.sin(2 * np.pi * xs / rng.uniform(120, 400) + rng.uniform(0, 7))
     dip = rng.uniform(-0.1, 0.1) * (xs - cols / 2)
     fault_x, throw = cols + 1.0, 0.0  # no fault
@@ -95,14 +111,14 @@ def _strata(rng: np.random.Generator) -> tuple[np.ndarray, list[np.ndarray]]:
     img = np.zeros((rows, cols, 3), np.float32)
     for k in range(n):
         m = bed == k
-        grain = 1 + rng.uniform(0.03, 0.08) * _octaves(rng, SHAPE, rng.uniform(1.0, 2.5))
-        img[m] = _rock_colour(rng) * grain[m][:, None]
-    dots = rng.random(SHAPE) < rng.uniform(0.005, 0.02)
+        grain = 1 + rng.uniform(0.03, 0.08) * _octaves(rng, shape, rng.uniform(1.0, 2.5))
+        img[m] = colour(rng) * grain[m][:, None]
+    dots = rng.random(shape) < rng.uniform(0.005, 0.02)
     img[dots] *= rng.uniform(0.85, 1.15, (int(dots.sum()), 1))
     if rng.random() < 0.5:  # laminae: faint darker lines along the bedding
         phase = (yy - (fold + dip)[None, :]) / rng.uniform(3, 7)
         img *= (1 - 0.04 * (np.sin(2 * np.pi * phase) > 0.9))[..., None]
-    height = _octaves(rng, SHAPE, rng.uniform(10, 30))
+    height = _octaves(rng, shape, rng.uniform(10, 30))
     gy, gx = np.gradient(height)
     sun = rng.uniform(0, 2 * np.pi)
     shade = 1 + 0.08 * (np.cos(sun) * gx + np.sin(sun) * gy) / max(float(np.abs(gx).max()), 1e-6)
@@ -114,19 +130,25 @@ def _strata(rng: np.random.Generator) -> tuple[np.ndarray, list[np.ndarray]]:
     return img * (shade * light)[..., None], contacts
 
 
-def _shadows(rng: np.random.Generator, img: np.ndarray, contacts: list[np.ndarray]) -> np.ndarray:
-    """Ledge shadows hanging from 2-4 contacts (there are always at least two)."""
-    rows, cols = SHAPE
-    mask = np.zeros(SHAPE, bool)
+def _shadows(
+    rng: np.random.Generator,
+    img: np.ndarray,
+    contacts: list[np.ndarray],
+    count: tuple[int, int] = (2, 5),
+    length: tuple[float, float] = (40, 160),
+) -> np.ndarray:
+    """Ledge shadows hanging from ``count`` contacts (2-4: there are always at least two)."""
+    shape = rows, cols = img.shape[:2]
+    mask = np.zeros(shape, bool)
     yy = np.arange(rows, dtype=np.float32)[:, None]
-    for _ in range(int(rng.integers(2, 5))):
+    for _ in range(int(rng.integers(*count))):
         for _attempt in range(30):
-            length = rng.uniform(40, 160)
-            x0 = rng.uniform(0, cols - length)
-            xs = np.arange(int(x0), int(x0 + length))
+            long = rng.uniform(*length)
+            x0 = rng.uniform(0, cols - long)
+            xs = np.arange(int(x0), int(x0 + long))
             top = contacts[int(rng.integers(len(contacts)))][xs]
-            thick = rng.uniform(4, 12) * np.clip(np.sin(np.pi * (xs - x0) / length), 0, 1) ** 0.7
-            m = np.zeros(SHAPE, bool)
+            thick = rng.uniform(4, 12) * np.clip(np.sin(np.pi * (xs - x0) / long), 0, 1) ** 0.7
+            m = np.zeros(shape, bool)
             m[:, xs] = (yy >= top[None, :]) & (yy < (top + thick)[None, :])
             if m.sum() > 30:
                 mask |= m
@@ -147,15 +169,17 @@ def _shade(rng: np.random.Generator) -> np.ndarray:
     return (rng.uniform(0.35, 0.6) * tint).astype(np.float32)
 
 
-def _fine(mask_fn: Callable[[np.ndarray], None]) -> np.ndarray:
+def _fine(mask_fn: Callable[[np.ndarray], None], shape: tuple[int, int] = SHAPE) -> np.ndarray:
     """Coverage 0..1 of a shape drawn ``_SS`` times finer by ``mask_fn`` on a uint8 canvas."""
-    rows, cols = SHAPE
+    rows, cols = shape
     canvas = np.zeros((rows * _SS, cols * _SS), np.uint8)
     mask_fn(canvas)
     return cv2.resize(canvas, (cols, rows), interpolation=cv2.INTER_AREA).astype(np.float32) / 255
 
 
-def _blob(rng: np.random.Generator, cx: float, cy: float, radius: float) -> np.ndarray:
+def _blob(
+    rng: np.random.Generator, cx: float, cy: float, radius: float, shape: tuple[int, int] = SHAPE
+) -> np.ndarray:
     """Coverage of an irregular blob: a radius varied by 3-6 random harmonics."""
     t = np.linspace(0, 2 * np.pi, 96, endpoint=False)
     r = np.ones_like(t)
@@ -163,7 +187,7 @@ def _blob(rng: np.random.Generator, cx: float, cy: float, radius: float) -> np.n
         r += rng.uniform(0.02, 0.25) / k * np.cos(k * t + rng.uniform(0, 7))
     pts = np.stack([cx + radius * r * np.cos(t), cy + radius * r * np.sin(t)], 1)
     fine = np.round((pts * _SS + (_SS - 1) / 2) * 16).astype(np.int32)
-    return _fine(lambda c: cv2.fillPoly(c, [fine], 255, cv2.LINE_8, 4))
+    return _fine(lambda c: cv2.fillPoly(c, [fine], 255, cv2.LINE_8, 4), shape)
 
 
 def _vein(rng: np.random.Generator) -> np.ndarray | None:
@@ -184,10 +208,17 @@ def _vein(rng: np.random.Generator) -> np.ndarray | None:
 
 def _paint(img: np.ndarray, cover: np.ndarray, kind: str, rng: np.random.Generator) -> None:
     """Paint one target of ``kind`` where ``cover`` says, keeping the rock's grain under it;
-    nodules, varnish, bleaching and cracks take their colour from the rock they are on."""
+    nodules, varnish, bleaching and cracks take their colour from the rock they are on, and
+    a wet stain darkens and saturates each pixel of it."""
+    a = cover[..., None]
+    if kind == "wet_stain":  # water darkens rock and deepens its colour, bed by bed
+        grey = img.mean(axis=2, keepdims=True)
+        wet = (grey + (img - grey) * rng.uniform(1.2, 1.6)) * rng.uniform(0.55, 0.75)
+        img[:] = img * (1 - a) + wet * a
+        return
     host = img[cover > 0].mean(axis=0)
     grain = img / np.maximum(cv2.GaussianBlur(img, (0, 0), 3), 1)
-    mottle = 1 + 0.12 * _octaves(rng, SHAPE, 2.0)[..., None]
+    mottle = 1 + 0.12 * _octaves(rng, img.shape[:2], 2.0)[..., None]
     hsv = cv2.cvtColor(
         (np.clip(host, 0, 255)[None, None] / 255).astype(np.float32), cv2.COLOR_BGR2HSV
     )[0, 0]
@@ -209,7 +240,6 @@ def _paint(img: np.ndarray, cover: np.ndarray, kind: str, rng: np.random.Generat
     textured = colour[None, None] * grain
     if kind.startswith("lichen"):
         textured = textured * mottle
-    a = cover[..., None]
     img[:] = img * (1 - a) + textured * a
 
 
@@ -223,7 +253,8 @@ def _place(
     radius: Callable[[np.ndarray], float],
 ) -> tuple[tuple[Target, ...], np.ndarray]:
     """Draw and paint each kind where it is clear of shadows and of the others."""
-    labels = np.zeros(SHAPE, np.uint8)
+    rows, cols = img.shape[:2]
+    labels = np.zeros((rows, cols), np.uint8)
     targets: list[Target] = []
     clear = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * _CLEAR + 1, 2 * _CLEAR + 1))
     for kind in kinds:
@@ -235,7 +266,7 @@ def _place(
             ys, xs = np.nonzero(m)
             if len(ys) < 5 or ys.min() == 0 or xs.min() == 0:
                 continue
-            if ys.max() == SHAPE[0] - 1 or xs.max() == SHAPE[1] - 1:
+            if ys.max() == rows - 1 or xs.max() == cols - 1:
                 continue
             if (cv2.dilate(m.astype(np.uint8), clear).astype(bool) & (shadow | (labels > 0))).any():
                 continue
@@ -329,8 +360,45 @@ def empty_scene(seed: int) -> Scene:
     return _scene(seed, 4, lambda rng: [], lambda rng: None, _disc_radius)
 
 
+SEED_SHAPE = (108, 192)
+"""The seed's wearable mosaic, 3x4 tiles of 36x48."""
+
+
+def seed_cliff(seed: int, shadow: bool = True) -> Scene:
+    """The seed papers' case drawn apart: a pale gypsum and clay cliff, 108x192, with two
+    dark wet stains of 1-2 % of the image each and one ledge shadow (40-90 px long);
+    ``shadow=False`` leaves the shadow out and changes nothing else.
+
+    Examples
+    --------
+    >>> a, b = seed_cliff(5), seed_cliff(5, shadow=False)
+    >>> a.image.shape, [t.kind for t in a.targets], bool(a.shadow_mask.any())
+    ((108, 192, 3), ['wet_stain', 'wet_stain'], True)
+    >>> bool((a.target_labels == b.target_labels).all()), bool((a.image != b.image).any())
+    (True, True)
+    """
+    rng = np.random.default_rng([seed, 7919, 5])
+    rows, cols = SEED_SHAPE
+    img, contacts = _strata(rng, SEED_SHAPE, (5, 10), _pale_colour)
+    shaded = img.copy()
+    ledge = _shadows(rng, shaded, contacts, count=(1, 2), length=(40, 90))
+
+    def draw() -> np.ndarray | None:
+        radius = math.sqrt(rng.uniform(0.011, 0.019) * rows * cols / math.pi)
+        cx, cy = rng.uniform(1.5 * radius, cols - 1.5 * radius), rng.uniform(radius, rows - radius)
+        cover = _blob(rng, cx, cy, radius, SEED_SHAPE)
+        return cover if 0.01 <= float((cover >= 0.5).mean()) <= 0.02 else None
+
+    targets, labels = _place(rng, img, ["wet_stain"] * 2, draw, shadow=ledge, radius=_disc_radius)
+    if shadow:
+        img[ledge] = shaded[ledge]  # the stains keep clear of it
+    noisy = _finish(rng, img)
+    return Scene(noisy, targets, labels, ledge if shadow else np.zeros_like(ledge), seed)
+
+
 REGIMES: dict[str, Callable[[int], Scene]] = {
     "tiny": tiny_scene,
+    "seed": seed_cliff,
     "large": large_scene,
     "veins": vein_scene,
     "empty": empty_scene,
@@ -339,6 +407,7 @@ REGIMES: dict[str, Callable[[int], Scene]] = {
 
 DESCRIPTIONS: dict[str, str] = {
     "tiny": "held out: 1-3 spots of 4-8 px radius",
+    "seed": "held out: the seed's pale cliff, 2 dark wet stains of 1-2 % each, 1 ledge shadow",
     "large": "held out: 1-2 patches of 5-15 % of the image",
     "veins": "held out: 1-2 veins or cracks, 1.5-3 px wide, among ledge shadows",
     "empty": "held out: rock and ledge shadows, no target",

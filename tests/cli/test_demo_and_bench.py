@@ -89,16 +89,22 @@ def test_quality_settings_change_every_pipeline_profile_and_no_baseline(capsys):
     assert "unknown parameter 'blurr' (did you mean blur?)" in capsys.readouterr().err
 
 
-def test_quality_cli_scores_the_held_out_generator_without_a_seed_case(capsys):
-    assert quality.main(["--heldout", "--regimes", "empty,veins", "--scenes", "1"]) == 0
+def test_quality_cli_scores_the_held_out_generator_and_its_seed_case(capsys):
+    args = ["--heldout", "--regimes", "empty,seed", "--scenes", "1", "--cliffs", "2"]
+    assert quality.main(args) == 0
     out = capsys.readouterr().out
     assert "held-out generator (bench.heldout): reported, never tuned on" in out
     assert "empty: held out: rock and ledge shadows, no target; 216x288" in out
-    assert "paper, seed case" not in out  # the seed's cliff is ours alone
-    assert [line.split()[0] for line in out.splitlines()[-2:]] == ["empty", "veins"]
-    with pytest.raises(SystemExit):
-        quality.main(["--heldout", "--regimes", "seed", "--scenes", "1"])
-    assert "unknown regimes ['seed']" in capsys.readouterr().err
+    assert "seed: held out: the seed's pale cliff" in out and "108x192" in out
+    assert "paper, seed case, 2 cliffs: both stains top two" in out
+    assert [line.split()[0] for line in out.splitlines()[-2:]] == ["empty", "seed"]
+    lines = [line for line in out.splitlines() if line.startswith("paper, seed case")]
+    ours = quality.seed_case(2, 0)["seed_case"]
+    held = quality.seed_case(2, 0, cliff=heldout.seed_cliff)["seed_case"]
+    assert lines[0].startswith(
+        f"paper, seed case, 2 cliffs: both stains top two {100 * held['stains_top2']:.0f} %"
+    )
+    assert set(ours) == set(held)
     ours = quality.run(1, 3, 6.0, ["empty"])["empty"]["default"]
     held = quality.run(1, 3, 6.0, ["empty"], generators=heldout.REGIMES)["empty"]["default"]
     assert set(ours) == set(held)

@@ -4,19 +4,42 @@ import cv2
 import numpy as np
 import pytest
 
-from bench.heldout import DESCRIPTIONS, REGIMES
+from bench.heldout import DESCRIPTIONS, REGIMES, SEED_SHAPE, seed_cliff
 from daemon.regimes import REGIMES as OURS
 
 SEEDS = range(12)
 
 
-def test_regimes_are_ours_but_the_seed_case_and_each_is_described():
+def test_regimes_are_ours_and_each_is_described():
     # Determinism and labels: tests/unit/test_regimes.py, for both generators.
-    assert list(REGIMES) == [name for name in OURS if name != "seed"]
+    assert list(REGIMES) == list(OURS)
     assert set(DESCRIPTIONS) == set(REGIMES)
-    for gen in REGIMES.values():
+    for name, gen in REGIMES.items():
         scene = gen(3)
-        assert scene.image.shape == (216, 288, 3) and scene.shadow_mask.any()
+        shape = SEED_SHAPE if name == "seed" else (216, 288)
+        assert scene.image.shape == (*shape, 3) and scene.shadow_mask.any()
+
+
+def test_the_seed_cliff_is_pale_with_two_dark_stains_and_the_shadow_changes_nothing_else():
+    for s in SEEDS:
+        lit, shaded = seed_cliff(s, shadow=False), seed_cliff(s)
+        assert not lit.shadow_mask.any() and shaded.shadow_mask.any()
+        assert (lit.target_labels == shaded.target_labels).all()
+        outside = ~shaded.shadow_mask
+        assert (lit.image[outside] == shaded.image[outside]).all()
+        grey = lit.image.astype(np.float32).mean(axis=2)
+        hsv = cv2.cvtColor(lit.image, cv2.COLOR_BGR2HSV)
+        assert [t.kind for t in lit.targets] == ["wet_stain"] * 2
+        rock = lit.target_labels == 0
+        assert np.median(hsv[..., 1][rock]) < 0.25 * 255  # pale, low-saturation beds
+        ring = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (7, 7))
+        for i in (1, 2):
+            stain = lit.target_labels == i
+            assert 0.01 <= stain.mean() <= 0.02
+            around = cv2.dilate(stain.astype(np.uint8), ring).astype(bool) & rock
+            assert grey[stain].mean() < 0.85 * grey[around].mean()  # wet is darker
+            near = cv2.dilate(stain.astype(np.uint8), ring).astype(bool)
+            assert not (near & shaded.shadow_mask).any()
 
 
 @pytest.mark.parametrize("name", ["tiny", "large", "veins"])
