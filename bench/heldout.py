@@ -25,7 +25,9 @@ Written apart from ``daemon.regimes``, on other models of the same things:
 
 Regimes: ``tiny`` (1-3 targets of 4-8 px radius), ``large`` (1-2 of 5-15 % of the image),
 ``veins`` (1-2 veins or cracks, 1.5-3 px wide, 40-120 px long) and ``empty`` (rock and
-shadows only), all 216x288, deterministic by seed. ``bench.quality --heldout`` scores them.
+shadows only), all 216x288, and ``seed`` (``seed_cliff``: the seed's 108x192 pale cliff, two
+wet stains that darken and deepen the colour of whatever bed they wet, one ledge shadow),
+deterministic by seed. ``bench.quality --heldout`` scores them, and ``paper`` on its seed case.
 """
 
 from __future__ import annotations
