@@ -139,7 +139,8 @@ def _shadows(
     count: tuple[int, int] = (2, 5),
     length: tuple[float, float] = (40, 160),
 ) -> np.ndarray:
-    """Ledge shadows hanging from ``count`` contacts (2-4: there are always at least two)."""
+    """Ledge shadows hanging from contacts, as many as ``rng.integers(*count)`` draws (2-4 on
+    the outcrops, which always have two; one on the seed's cliff), ``length`` px long."""
     shape = rows, cols = img.shape[:2]
     mask = np.zeros(shape, bool)
     yy = np.arange(rows, dtype=np.float32)[:, None]
