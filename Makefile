@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo rig test bench bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security lint clean
+.PHONY: demo rig test bench bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security lint clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -28,7 +28,7 @@ test: $(STAMP)
 	$(PY) -m ruff check .
 	$(PY) -m pytest -q
 
-bench: bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-operator bench-security
+bench: bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security
 
 bench-quality: $(STAMP)
 	$(PY) -m bench.quality --scenes 120
@@ -66,6 +66,22 @@ bench-survey: $(STAMP)
 
 bench-bus: $(STAMP)
 	$(PY) -m bench.bus
+
+# A frozen viewer, a cancel mid-analysis, an idle rig, a flood of huge requests.
+bench-field: $(STAMP)
+	$(PY) -m bench.field
+
+# The session log after a SIGKILL mid-station: what the ordinary mcap reader opens.
+bench-record: $(STAMP)
+	$(PY) -m bench.record
+
+# Scripts at the edges: a vanished rig, Ctrl-C, a closed pipe.
+bench-edges: $(STAMP)
+	$(PY) -m bench.edges
+
+# The console under 400 slow-header connections at a 256-file limit.
+bench-console: $(STAMP)
+	$(PY) -m bench.console
 
 # Needs headless Chromium: Debian's chromium and chromium-driver.
 bench-operator: $(STAMP)

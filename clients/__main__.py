@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -28,7 +29,27 @@ def _operator(args: argparse.Namespace) -> int:
     return run_operator(args)
 
 
+CLOSED_PIPE = 141
+"""A reader that went away (``cyborg list | head -1``): the status a shell gives a command
+SIGPIPE ended (128 + 13), without a traceback."""
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Every subcommand, ended quietly by a closed stdout or Ctrl-C wherever it is."""
+    try:
+        code = _main(argv)
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+    except BrokenPipeError:
+        # Python's recipe: stdout at devnull, so the flush at exit finds nothing to write.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return CLOSED_PIPE
+    except KeyboardInterrupt:  # outside a command's own handling (bus commands exit 130 too)
+        print("cyborg: interrupted", file=sys.stderr)
+        return cli.INTERRUPTED
+    return code
+
+
+def _main(argv: list[str] | None) -> int:
     parser = argparse.ArgumentParser(prog="cyborg", description=__doc__)
     parser.add_argument(
         "--version",

@@ -3,7 +3,9 @@ halt | take | release``, and ``cyborg call VERB FIELDS`` for any command of the 
 each printing one JSON object with ``--json``.
 
 Exit status: 0 done; 1 the rig refused or failed (the JSON says why); 2 a bad request;
-3 the rig is not reachable. Motion takes control when nobody holds it; from another client only with
+3 the rig is not reachable, or left the bus meanwhile (its liveliness token went); 130
+interrupted (Ctrl-C: the survey the command started is cancelled and the control it took
+released). Motion takes control when nobody holds it; from another client only with
 ``--take``.
 """
 
@@ -53,6 +55,7 @@ from .rigclient import (
 __all__ = ["register"]
 
 UNREACHABLE = 3
+INTERRUPTED = 130
 Report = dict[str, Any]
 Command = Callable[[RigClient, argparse.Namespace], Awaitable[tuple[Report, str]]]
 
@@ -227,9 +230,15 @@ async def _run(command: Command, args: argparse.Namespace) -> int:
     code = 1
     try:
         with RigClient.open(transport(args, "client"), args.rig, args.name) as client:
-            await client.wait_alive(args.wait_rig)
-            report, text = await command(client, args)
-            code = 0
+            try:
+                async with client.on_bus(args.wait_rig):
+                    report, text = await command(client, args)
+                code = 0
+            except asyncio.CancelledError:  # Ctrl-C: asyncio.run cancels this task once
+                asyncio.current_task().uncancel()
+                undone = await client.rollback()
+                code, text = INTERRUPTED, "; ".join(["interrupted", *undone])
+                report = {"ok": False, "error": text}
     except zenoh.ZError as exc:
         code, text = UNREACHABLE, f"cannot reach {', '.join(transport(args, 'client').connect)}"
         report = {"ok": False, "error": f"{text}: {exc}"}

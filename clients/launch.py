@@ -35,6 +35,7 @@ __all__ = [
     "router",
     "simulated_config",
     "spawn",
+    "watcher",
 ]
 
 CERTS = Path(__file__).parents[1] / "systemd" / "cyborg-certs.sh"
@@ -189,14 +190,58 @@ def router() -> Iterator[str]:
         session.close()
 
 
+_WATCHER = """
+import sys, time, zenoh
+from protocol.transport import Transport
+session = zenoh.open(zenoh.Config.from_json5(Transport("client", connect=(sys.argv[1],)).json5()))
+subscriber = session.declare_subscriber(sys.argv[2], lambda sample: None)
+print("watching", flush=True)
+while True:
+    time.sleep(60)
+"""
+
+
+@contextlib.asynccontextmanager
+async def watcher(endpoint: str, key: str) -> AsyncIterator[asyncio.subprocess.Process]:
+    """A subscriber to ``key`` in a process of its own, linked to ``endpoint``: tests and
+    benchmarks freeze it (SIGSTOP) as a viewer whose radio link stalls. Killed at the end."""
+    proc = await asyncio.create_subprocess_exec(
+        sys.executable,
+        "-c",
+        _WATCHER,
+        endpoint,
+        key,
+        stdout=asyncio.subprocess.PIPE,
+        cwd=Path(__file__).parents[1],
+    )
+    try:
+        if await asyncio.wait_for(proc.stdout.readline(), 30) != b"watching\n":
+            raise RuntimeError(f"the watcher of {key} did not start")
+        yield proc
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            proc.send_signal(signal.SIGCONT)
+            proc.kill()
+        await proc.wait()
+
+
 @contextlib.asynccontextmanager
 async def operator(
-    connect: str, rig: str, name: str, log: Path, extra: Sequence[str] = ()
+    connect: str,
+    rig: str,
+    name: str,
+    log: Path,
+    extra: Sequence[str] = (),
+    *,
+    nofile: int | None = None,
 ) -> AsyncIterator[str]:
-    """``cyborg operator`` on a free port (``extra``: more options, e.g. TLS files);
-    yields its page's URL, then stops it (SIGTERM) and raises if it did not exit cleanly."""
+    """``cyborg operator`` on a free port (``extra``: more options, e.g. TLS files; ``nofile``:
+    its open-file limit, as a small box or a ``LimitNOFILE=`` would set it); yields its page's
+    URL, then stops it (SIGTERM) and raises if it did not exit cleanly."""
+    limit = ("prlimit", f"--nofile={nofile}:{nofile}", "--") if nofile else ()
     with log.open("wb") as err:
         proc = await asyncio.create_subprocess_exec(
+            *limit,
             sys.executable,
             "-m",
             "clients",

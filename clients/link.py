@@ -4,7 +4,8 @@ Defaults suit the wearable: the installed daemon's unix socket, else 127.0.0.1:7
 Environment variables set them for a shell, e.g. a remote operator dialling the field
 router over TLS:
 ``CYBORG_RIG``, ``CYBORG_CONNECT`` (comma-separated), ``CYBORG_NAME``, ``CYBORG_TLS_CA``,
-``CYBORG_TLS_CERT``, ``CYBORG_TLS_KEY``, ``CYBORG_USER`` and ``CYBORG_PASSWORD_FILE``.
+``CYBORG_TLS_CERT``, ``CYBORG_TLS_KEY``, ``CYBORG_USER``, ``CYBORG_PASSWORD_FILE`` and
+``CYBORG_INSECURE`` (any value: dial clear text beyond loopback, as ``cyborgd --insecure``).
 The name must be the certificate's common name (or the username): the rig knows a client
 by the name in its command keys, and the router lets it use only its own.
 """
@@ -83,6 +84,12 @@ def add_link_arguments(parser: argparse.ArgumentParser, role: str) -> None:
     tls.add_argument(
         "--password-file", default=env("CYBORG_PASSWORD_FILE", ""), type=str, metavar="FILE"
     )
+    tls.add_argument(
+        "--insecure",
+        action="store_true",
+        default=bool(env("CYBORG_INSECURE")),
+        help="allow dialling clear-text tcp/ beyond loopback (a lab bench, never the field)",
+    )
 
 
 def transport(args: argparse.Namespace, mode: str) -> Transport:
@@ -102,4 +109,5 @@ def transport(args: argparse.Namespace, mode: str) -> Transport:
         tls_key=args.tls_key,
         user=args.user,
         password=password,
+        insecure=args.insecure,
     )

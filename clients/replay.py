@@ -162,7 +162,11 @@ def run_replay(args: argparse.Namespace) -> int:
     metadata, _ = read_log(path)
     rig = args.rig_override or metadata.get("session", {}).get("rig", "rig1")
     if args.listen:
-        link = Transport("peer", listen=tuple(args.listen))
+        try:
+            link = Transport("peer", listen=tuple(args.listen), insecure=args.insecure)
+        except ValueError as exc:
+            print(f"cyborg replay: --listen: {exc}")
+            return 2
 
     async def main() -> int:
         task = asyncio.create_task(replay(path, link, rig, args.speed), name="cyborg.replay")

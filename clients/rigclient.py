@@ -2,7 +2,7 @@
 
 Depends on ``protocol`` only. zenoh callbacks run on zenoh's network thread
 (``indirect=False``: no Python thread outlives the session) and only hand copied bytes
-to the event loop.
+(or a liveliness change) to the event loop.
 """
 
 from __future__ import annotations
@@ -10,15 +10,16 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import itertools
+import logging
 import typing
 import uuid
-from collections.abc import Callable, Iterator
+from collections.abc import AsyncIterator, Callable, Collection, Iterator
 from dataclasses import dataclass
 from typing import TypeVar
 
 import zenoh
 
-from protocol.envelope import decode, encode
+from protocol.envelope import MAX_MESSAGE, decode, encode
 from protocol.errors import ProtocolError
 from protocol.keys import Keys, check_client
 from protocol.messages import (
@@ -26,8 +27,10 @@ from protocol.messages import (
     FrameHeader,
     InterestResult,
     Message,
+    ReleaseControl,
     Request,
     StreamRequest,
+    SurveyCancel,
     SurveyProgress,
     SurveyStart,
     SurveyStatus,
@@ -37,6 +40,7 @@ from protocol.messages import (
 from protocol.transport import Transport
 
 R = TypeVar("R", bound=Message)
+_LOGGER = logging.getLogger(__name__)
 
 __all__ = [
     "ControlHeldError",
@@ -46,6 +50,7 @@ __all__ = [
     "RigRefusedError",
     "RigUnavailableError",
     "run_station",
+    "until_stage",
 ]
 
 
@@ -88,6 +93,9 @@ class RigClient:
         self.name = check_client(name)
         self._seq = itertools.count(1)
         self._entities: list = []
+        self.undo: dict[str, Request] = {}
+        """What :meth:`rollback` sends, by verb: the release of the control this client
+        took, the cancel of the survey it is running."""
 
     @classmethod
     @contextlib.contextmanager
@@ -142,8 +150,14 @@ class RigClient:
         return msg
 
     async def call(self, msg: Request, timeout: float = 10.0) -> Message:
-        """Send a command; its reply whatever it is (a refusing Ack included)."""
-        return await self.call_raw(msg.VERB, self.request(msg), timeout)
+        """Send a command; its reply whatever it is (a refusing Ack included). One over the
+        protocol's size limit is refused here: the rig's link would drop it unanswered."""
+        payload = self.request(msg)
+        if len(payload) > MAX_MESSAGE:
+            raise ValueError(
+                f"{msg.VERB}: {len(payload)} bytes, over the protocol's {MAX_MESSAGE}-byte limit"
+            )
+        return await self.call_raw(msg.VERB, payload, timeout)
 
     async def command(self, msg: Request[R], timeout: float = 10.0) -> R:
         """Send a command and return its reply, of the kind the request declares; a non-OK
@@ -164,7 +178,21 @@ class RigClient:
         if status.controller and not take_over:
             raise ControlHeldError(status.controller)
         await self.command(TakeControl())
+        self.undo[ReleaseControl.VERB] = ReleaseControl()
         return True
+
+    async def rollback(self, timeout: float = 5.0) -> list[str]:
+        """Undo what this client started and took, newest first, for a script stopped
+        half-way (a survey left running would keep the head and the control); returns
+        the details of what the rig undid. Refusals and silence are skipped."""
+        done = []
+        while self.undo:
+            verb, msg = self.undo.popitem()
+            try:
+                done.append((await self.command(msg, timeout)).detail)
+            except RigError as exc:
+                _LOGGER.debug("%s not undone: %s", verb, exc)
+        return done
 
     # -- telemetry ---------------------------------------------------------------------
 
@@ -251,20 +279,67 @@ class RigClient:
 
     def alive(self) -> asyncio.Queue[bool]:
         """True when the daemon's liveliness token appears, False when it goes."""
-        loop = asyncio.get_running_loop()
         queue: asyncio.Queue[bool] = asyncio.Queue()
+        self._entities.append(self._liveliness(queue.put_nowait))
+        return queue
+
+    def _liveliness(self, on_change: Callable[[bool], None]) -> zenoh.Subscriber:
+        """Call ``on_change`` on the loop with True when the rig's liveliness token is
+        (or becomes) visible, False when it goes."""
+        loop = asyncio.get_running_loop()
 
         def on_sample(sample: zenoh.Sample) -> None:
             up = sample.kind == zenoh.SampleKind.PUT
             with contextlib.suppress(RuntimeError):
-                loop.call_soon_threadsafe(queue.put_nowait, up)
+                loop.call_soon_threadsafe(on_change, up)
 
-        self._entities.append(
-            self.session.liveliness().declare_subscriber(
-                self.keys.alive, zenoh.handlers.Callback(on_sample, indirect=False), history=True
-            )
+        return self.session.liveliness().declare_subscriber(
+            self.keys.alive, zenoh.handlers.Callback(on_sample, indirect=False), history=True
         )
-        return queue
+
+    @contextlib.asynccontextmanager
+    async def on_bus(self, wait: float = 10.0) -> AsyncIterator[None]:
+        """Wait up to ``wait`` s for the rig (:meth:`wait_alive`), then run the block while
+        its liveliness token stays: when it goes (at once if the daemon dies, after zenoh's
+        lease if its link goes silent) the block is cancelled and RigUnavailableError
+        raised, instead of waiting out a command's timeout."""
+        task = asyncio.current_task()
+        assert task is not None
+        lost = False
+
+        def on_change(up: bool) -> None:
+            nonlocal lost
+            if not up and not lost:
+                lost = True
+                task.cancel()
+
+        watch = self._liveliness(on_change)  # before the wait: a loss in between counts
+        try:
+            await self.wait_alive(wait)
+            yield
+        except asyncio.CancelledError:
+            if lost and task.uncancel() == 0:
+                raise RigUnavailableError(f"rig {self.keys.rig!r} left the bus") from None
+            raise
+        finally:
+            lost = True  # disarmed: the block is over
+            with contextlib.suppress(zenoh.ZError):
+                watch.undeclare()
+
+
+async def until_stage(
+    progress: asyncio.Queue[SurveyProgress],
+    station: str,
+    stages: Collection[str],
+    timeout: float = 120.0,
+) -> SurveyProgress:
+    """The first progress of ``station`` at one of ``stages`` (a subscription made before
+    the station started, so none is missed); TimeoutError after ``timeout``."""
+    async with asyncio.timeout(timeout):
+        while True:
+            p = await progress.get()
+            if p.station == station and p.stage in stages:
+                return p
 
 
 async def run_station(
@@ -279,21 +354,31 @@ async def run_station(
     """Start a survey and follow it to its result; raise RigError if it fails.
 
     ``progress`` and ``results`` are subscriptions made before the start, so nothing
-    published in between is missed.
+    published in between is missed. If the caller is cancelled meanwhile, the station
+    may go on: ``client.undo`` keeps its cancel for :meth:`RigClient.rollback`.
     """
-    station = (await client.command(request)).detail
-    async with asyncio.timeout(timeout):
-        while True:
-            p = await progress.get()
-            if p.station != station:
-                continue
-            if on_progress is not None:
-                on_progress(p)
-            if p.stage in ("failed", "incomplete"):
-                raise RigError(f"station {station} {p.stage}")
-            if p.stage == "done":
-                break
-        while True:
-            result = await results.get()
-            if result.station == station:
-                return result
+    client.undo[SurveyCancel.VERB] = SurveyCancel()  # an interrupted start may still land
+    over = True
+    try:
+        station = (await client.command(request)).detail
+        async with asyncio.timeout(timeout):
+            while True:
+                p = await progress.get()
+                if p.station != station:
+                    continue
+                if on_progress is not None:
+                    on_progress(p)
+                if p.stage in ("failed", "incomplete"):
+                    raise RigError(f"station {station} {p.stage}")
+                if p.stage == "done":
+                    break
+            while True:
+                result = await results.get()
+                if result.station == station:
+                    return result
+    except asyncio.CancelledError:
+        over = False
+        raise
+    finally:
+        if over:
+            client.undo.pop(SurveyCancel.VERB, None)

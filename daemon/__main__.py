@@ -6,6 +6,7 @@ import argparse
 import asyncio
 import importlib
 import logging
+import os
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -187,6 +188,19 @@ def _run_emulator(args: argparse.Namespace, parser: argparse.ArgumentParser) -> 
 
 
 def main(argv: list[str] | None = None) -> int:
+    """A closed stdout (``cyborgd analyze --json ... | head``) ends any command quietly, with
+    the status a shell gives a command SIGPIPE ended (141), as ``cyborg`` does."""
+    try:
+        code = _main(argv)
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+    except BrokenPipeError:
+        # Python's recipe: stdout at devnull, so the flush at exit finds nothing to write.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
+    return code
+
+
+def _main(argv: list[str] | None) -> int:
     parser = argparse.ArgumentParser(prog="cyborgd", description=__doc__)
     parser.add_argument(
         "--version",

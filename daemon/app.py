@@ -27,6 +27,7 @@ import cv2
 
 from protocol.envelope import MAX_MESSAGE
 from protocol.messages import Event, FrameHeader, Message, PtuState
+from protocol.redact import redact_url
 from protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 from .archive import Archive
@@ -36,7 +37,7 @@ from .commands import Commands
 from .config import Config
 from .liveview import LiveViews, View
 from .ptu import LinkState, PtuError, open_ptu
-from .record import Recorder
+from .record import Recorder, recover_logs
 from .rig import Rig
 from .sdnotify import Notifier
 from .site import Gpsd, Orientation, where
@@ -159,6 +160,7 @@ async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
     cv2.setNumThreads(1)  # the worker does the heavy lifting; leave the cores to it and zenoh
     archive = Archive(cfg.archive, cfg.rig)
     recovered = archive.open()
+    await asyncio.to_thread(recover_logs, archive.root)
     if cfg.zenoh.exposed():
         _LOGGER.warning(
             "insecure = true: the bus is in clear text on %s, and anyone who reaches it can "
@@ -167,6 +169,12 @@ async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
         )
     if cfg.zenoh.access is None and cfg.zenoh.reachable():
         _LOGGER.warning("no access list ([zenoh] users): every peer that connects may command")
+    elif cfg.zenoh.access is None and cfg.zenoh.loopback():
+        _LOGGER.warning(
+            "no access list on loopback %s: any user of this machine may drive the PTU and "
+            "feed clients fake state (a unix socket or [zenoh] users closes it: README Security)",
+            ", ".join(cfg.zenoh.loopback()),
+        )
     async with contextlib.AsyncExitStack() as stack:
         bus = stack.enter_context(Bus.open(cfg.zenoh, cfg.keys))
         worker = await stack.enter_async_context(VisionWorker())
@@ -183,8 +191,8 @@ async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
                 "build": BUILD,
                 "protocol": f"{PROTOCOL_MAJOR}.{PROTOCOL_MINOR}",
                 "host": socket.gethostname(),
-                "camera": cfg.camera.url,
-                "ptu": cfg.ptu,
+                "camera": redact_url(cfg.camera.url),
+                "ptu": redact_url(cfg.ptu),
             }
             recorder = Recorder(archive.root, metadata, cfg.record.frames)
             stack.push_async_callback(asyncio.to_thread, recorder.close)

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from .imageio import write_atomic, write_png
+from .imageio import fsync_dir, write_atomic, write_png
 
 __all__ = ["Archive", "ArchiveError", "Station"]
 
@@ -42,14 +42,6 @@ class ArchiveError(ValueError):
 
 def _now() -> str:
     return time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
-
-
-def _fsync_dir(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 @dataclass
@@ -118,7 +110,7 @@ class Station:
         if final.exists():
             shutil.rmtree(final)
         os.replace(self.partial_dir, final)
-        _fsync_dir(self.folder)
+        fsync_dir(self.folder)
         written = sorted(p.relative_to(self.folder).as_posix() for p in final.iterdir())
         for rel in written:
             self._record(rel, (self.folder / rel).stat().st_size)
@@ -140,8 +132,12 @@ class Archive:
         self.rig = rig
 
     def open(self) -> list[str]:
-        """Create the root if needed; mark stations a crash left in progress. Returns them."""
+        """Create the root if needed; mark stations a crash left in progress, and remove the
+        partial analyses it left in any station. Returns the stations marked."""
         self.root.mkdir(parents=True, exist_ok=True)
+        for partial in self.root.glob(f"*/*/{PARTIAL}"):
+            _LOGGER.info("removing %s, left by an interrupted analysis", partial)
+            shutil.rmtree(partial, ignore_errors=True)
         recovered = []
         for manifest in sorted(self.root.glob(f"*/*/{MANIFEST}")):
             try:

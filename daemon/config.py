@@ -190,14 +190,7 @@ def validate(cfg: Config) -> Config:
             with_settings(params, list(s.settings))
     except ValueError as exc:
         raise ConfigError(f"survey.settings: {exc}") from None
-    exposed = cfg.zenoh.exposed()
-    if exposed and not cfg.zenoh.insecure:
-        raise ConfigError(
-            f"zenoh.listen: {', '.join(exposed)} would carry the bus in clear text beyond this "
-            "machine, where anyone could drive the PTU; listen on tls/ (README: Security), "
-            "on loopback or a unix socket, or set insecure = true in [zenoh]"
-        )
-    return cfg
+    return cfg  # [zenoh] checked itself (protocol.transport): clear text, anonymous TLS
 
 
 def load(path: Path | None = None, **overrides: Any) -> Config:

@@ -79,6 +79,15 @@ def _file_mode() -> int:
     return 0o666 & ~mask
 
 
+def fsync_dir(path: Path) -> None:
+    """Put a folder's entries on the disk: a rename in it survives a power cut."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
 def write_atomic(path: Path, data: bytes) -> None:
     """Write a file so that readers see the old file or the whole new one, never a part."""
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -87,14 +87,21 @@ class LiveViews:
                 continue
             view.idle_since = None
             if now >= view.next_at:
-                view.next_at = max(view.next_at + view.period, now)
+                view.next_at += view.period
+                if view.next_at <= now:  # late (or first): a period from now, no burst
+                    view.next_at = now + view.period
                 out.append(view)
         return out
 
     def next_wake(self, now: float, cap: float) -> float:
-        """Seconds to sleep: until the next view is due, at most ``cap``."""
+        """Seconds to sleep: until the next watched view is due, at most ``cap``.
+
+        A view nobody watches is never due, and its next time stays in the past: counting
+        it would make the frame loop spin, burning a core of the wearable's battery.
+        """
         views = ([self.default] if self.default else []) + list(self.streams.values())
-        soonest = min((v.next_at for v in views), default=now + cap)
+        watched = [v.next_at for v in views if self.watched(v.key)]
+        soonest = min(watched, default=now + cap)
         return max(0.0, min(cap, soonest - now))
 
     def _forget(self, key: str) -> None:

@@ -70,7 +70,7 @@ def load_router(path: Path) -> Transport:
         raise ValueError(f"users: {users_file}: {exc.strerror or exc}") from None
     except ValueError as exc:
         raise ValueError(f"users: {users_file}: {exc}") from None
-    transport = Transport(
+    return Transport(  # refuses clear text and anonymous TLS beyond loopback
         "router",
         listen=tuple(data["listen"]),
         tls_ca=str(data.get("tls_ca", "")),
@@ -81,13 +81,6 @@ def load_router(path: Path) -> Transport:
         insecure=bool(data.get("insecure", False)),
         access=access_control(keys, users, local=False),
     )
-    exposed = transport.exposed()
-    if exposed and not transport.insecure:
-        raise ValueError(
-            f"listen: {', '.join(exposed)} would carry the bus in clear text beyond this "
-            "machine; use tls/ endpoints, or set insecure = true"
-        )
-    return transport
 
 
 async def _serve(transport: Transport, ready: TextIO) -> int:

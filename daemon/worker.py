@@ -12,6 +12,7 @@ import asyncio
 import contextlib
 import ctypes
 import importlib
+import itertools
 import logging
 import multiprocessing as mp
 import os
@@ -19,6 +20,7 @@ import signal
 import sys
 import traceback
 from collections.abc import Callable
+from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from typing import Any, Self
 
@@ -65,8 +67,27 @@ def _resolve(job: Job) -> Callable[..., Any]:
     return fn
 
 
+@dataclass(frozen=True)
+class _Call:
+    """One job sent to the worker; ``id`` ties the reply to the call that is waiting."""
+
+    id: int
+    job: Job
+    args: tuple[Any, ...]
+
+
+@dataclass(frozen=True)
+class _Reply:
+    """The worker's answer to call ``id``: its value, or the error's one line and traceback."""
+
+    id: int
+    value: Any = None
+    error: str = ""
+    traceback: str = ""
+
+
 def _serve(conn: Connection, parent: int) -> None:
-    """Worker main loop: run ``(job, args)`` jobs until the pipe closes or the daemon dies.
+    """Worker main loop: run calls until the pipe closes or the daemon dies.
 
     The daemon owns the worker's lifetime: a Ctrl-C or a SIGTERM sent to the whole process
     group (a terminal, ``timeout``, systemd's control-group kill) must not kill it
@@ -80,13 +101,15 @@ def _serve(conn: Connection, parent: int) -> None:
     cv2.setNumThreads(1)
     while True:
         try:
-            fn, args = conn.recv()
+            call: _Call = conn.recv()
         except (EOFError, OSError):
             return
         try:
-            reply = ("ok", _resolve(fn)(*args))
+            reply = _Reply(call.id, value=_resolve(call.job)(*call.args))
         except Exception as exc:  # reported to the daemon, which decides
-            reply = ("error", f"{type(exc).__name__}: {exc}", traceback.format_exc())
+            reply = _Reply(
+                call.id, error=f"{type(exc).__name__}: {exc}", traceback=traceback.format_exc()
+            )
         try:
             conn.send(reply)
         except OSError:  # the daemon is gone (BrokenPipe): nobody to tell
@@ -102,6 +125,7 @@ class VisionWorker:
         self._proc: Any = None
         self._conn: Connection | None = None
         self._lock = asyncio.Lock()
+        self._ids = itertools.count(1)
         self._closing = False
         self.restarts = 0
         self.on_restart = on_restart
@@ -139,37 +163,59 @@ class VisionWorker:
     async def call(self, fn: Job, *args: Any) -> Any:
         """Run ``fn(*args)`` in the worker (``fn`` a :data:`Job`); one job at a time.
 
+        Cancelling the call kills the worker and starts a fresh one before the cancellation
+        goes on: the job stops computing and writing at once (so its caller can clean up
+        what it wrote), and no late reply can reach the next call. A restart costs less
+        than the rest of an analysis nobody wants (``make bench-field``).
+
         Raises WorkerCrashedError if the process dies meanwhile, WorkerError if ``fn`` raised.
         """
         async with self._lock:
             proc, conn = self._proc, self._conn
             if proc is None or conn is None:
                 raise WorkerCrashedError("vision worker is not running")
+            call = _Call(next(self._ids), fn, args)
+            roundtrip = asyncio.ensure_future(asyncio.to_thread(self._roundtrip, proc, conn, call))
             try:
-                return await asyncio.to_thread(self._roundtrip, proc, conn, fn, args)
+                return await asyncio.shield(roundtrip)
             except WorkerCrashedError:
                 conn.close()
                 raise
+            except asyncio.CancelledError:
+                self._replace(proc)
+                await asyncio.wait([roundtrip])  # its thread sees the death and returns
+                conn.close()
+                raise
+
+    def _replace(self, proc: Any) -> None:
+        """Start a fresh worker, then kill ``proc`` (not a crash: no restart is counted)."""
+        self._proc = self._conn = None  # so that _on_exit knows this death was ours
+        if not self._closing:
+            self.start()
+        proc.kill()
+        _LOGGER.info("vision worker pid %d stopped: its job was cancelled", proc.pid)
 
     @staticmethod
-    def _roundtrip(proc: Any, conn: Connection, fn: Job, args: tuple) -> Any:
+    def _roundtrip(proc: Any, conn: Connection, call: _Call) -> Any:
         try:
-            conn.send((fn, args))
+            conn.send(call)
             while True:
                 ready = wait([conn, proc.sentinel])
                 if conn in ready:
-                    reply = conn.recv()
-                    break
-                if proc.sentinel in ready:
+                    reply: _Reply = conn.recv()
+                    if reply.id == call.id:
+                        break
+                    _LOGGER.warning("discarded a stray reply to call %d", reply.id)
+                elif proc.sentinel in ready:
                     raise EOFError
-        except (EOFError, OSError, BrokenPipeError):
+        except (EOFError, OSError):
             raise WorkerCrashedError(
                 f"vision worker pid {proc.pid} died during the job (exit code {proc.exitcode})"
             ) from None
-        if reply[0] == "ok":
-            return reply[1]
-        _LOGGER.debug("worker traceback:\n%s", reply[2])
-        raise WorkerError(reply[1])
+        if not reply.error:
+            return reply.value
+        _LOGGER.debug("worker traceback:\n%s", reply.traceback)
+        raise WorkerError(reply.error)
 
     async def __aenter__(self) -> Self:
         self.start()

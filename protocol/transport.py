@@ -5,10 +5,17 @@ field network (or two test runs on one machine) never joins the wrong rig by acc
 
 Links beyond the machine are TLS with mutual authentication (``tls/`` endpoints, a CA,
 this side's certificate and key); the certificate's common name is who a peer is, and an
-access-control section (:mod:`protocol.access`) says what each name may do. Plain TCP or
-UDP on anything but loopback is refused unless ``insecure`` says so in so many words
-(:meth:`Transport.exposed`). A unix socket (``unixsock-stream/<path>``) serves clients on
-the same machine, guarded by its file permissions.
+access-control section (:mod:`protocol.access`) says what each name may do. The same
+rules hold for every side (the rig, a router, each client), for the endpoints it listens on
+and those it dials:
+
+- clear text (``tcp/``, ``udp/``, ``ws/``) beyond loopback is refused unless ``insecure``
+  says so in so many words (:meth:`Transport.exposed`);
+- a TLS listener beyond loopback that asks neither a certificate (``mtls``) nor a password
+  (``passwords``) is refused: anyone who reaches it would be let in without a name.
+
+A unix socket (``unixsock-stream/<path>``) serves clients on the same machine, guarded by
+its file permissions.
 """
 
 from __future__ import annotations
@@ -18,9 +25,15 @@ import json
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["MODES", "Transport"]
+from .envelope import MAX_MESSAGE
+
+__all__ = ["MAX_LINK_MESSAGE", "MODES", "Transport"]
 
 MODES = ("peer", "client", "router")
+MAX_LINK_MESSAGE = MAX_MESSAGE + 64 * 1024
+"""The largest message a link takes in (zenoh's default is 1 GiB): an envelope at the
+protocol's limit, or a live frame with its header. A larger one is dropped as its
+fragments arrive, before it is whole in memory, rather than read and then refused."""
 _PLAIN = ("tcp", "udp", "ws")
 """Endpoint protocols that carry the bus in clear text."""
 
@@ -32,8 +45,11 @@ class Transport:
     >>> t = Transport(connect=("tcp/127.0.0.1:7447",))
     >>> t.config()["scouting"]["multicast"]["enabled"], t.exposed()
     (False, ())
-    >>> Transport(listen=("tcp/0.0.0.0:7447",)).exposed()
-    ('tcp/0.0.0.0:7447',)
+    >>> Transport(connect=("tcp/router.field:7447",), insecure=True).exposed()
+    ('tcp/router.field:7447',)
+    >>> Transport(listen=("tcp/0.0.0.0:7447",))
+    Traceback (most recent call last):
+    ValueError: tcp/0.0.0.0:7447 would carry the bus in clear text beyond this machine, ...
     """
 
     mode: str = "peer"
@@ -54,7 +70,8 @@ class Transport:
     passwords: str = ""
     """A ``user:password`` dictionary file checked when others dial us."""
     insecure: bool = False
-    """Allow clear-text endpoints beyond loopback (a lab bench, never the field)."""
+    """Allow clear-text endpoints beyond loopback, listening or dialling (a lab bench, never
+    the field)."""
     access: dict[str, Any] | None = None
     """zenoh's ``access_control`` section (:func:`protocol.access.access_control`)."""
 
@@ -68,21 +85,43 @@ class Transport:
                 )
         if self.mode == "client" and not self.connect:
             raise ValueError("zenoh client mode needs at least one connect endpoint")
-        uses_tls = any(ep.startswith(("tls/", "quic/")) for ep in (*self.listen, *self.connect))
-        if uses_tls and not self.tls_ca:
+        if any(_tls(ep) for ep in (*self.listen, *self.connect)) and not self.tls_ca:
             raise ValueError("tls/ endpoints need tls_ca (the field network's CA certificate)")
-        if any(ep.startswith(("tls/", "quic/")) for ep in self.listen) and not (
-            self.tls_cert and self.tls_key
-        ):
+        if any(_tls(ep) for ep in self.listen) and not (self.tls_cert and self.tls_key):
             raise ValueError("listening on tls/ needs tls_cert and tls_key")
         if bool(self.tls_cert) != bool(self.tls_key):
             raise ValueError("tls_cert and tls_key go together")
         if bool(self.user) != bool(self.password):
             raise ValueError("user and password go together")
+        if self.exposed() and not self.insecure:
+            raise ValueError(
+                f"{', '.join(self.exposed())} would carry the bus in clear text beyond this "
+                "machine, where anyone on the way could drive the PTU or forge the rig's "
+                "telemetry; use tls/ (README: Security), loopback or a unix socket, or say "
+                "insecure = true (--insecure) for a lab bench"
+            )
+        anonymous = [ep for ep in self.reachable() if _tls(ep)]
+        if anonymous and not (self.mtls or self.passwords):
+            raise ValueError(
+                f"{', '.join(anonymous)}: mtls = false without passwords would let in anyone "
+                "who reaches it, without a name; keep mtls = true (client certificates) or "
+                "give passwords"
+            )
 
     def reachable(self) -> tuple[str, ...]:
         """Listen endpoints other machines can reach (not loopback, not a unix socket)."""
         return tuple(ep for ep in self.listen if not _local(ep))
+
+    def loopback(self) -> tuple[str, ...]:
+        """Loopback network endpoints, listened on or dialled: every user of this machine
+        reaches them, and nothing tells those users apart (unlike a unix socket's mode).
+
+        >>> Transport(listen=("tcp/127.0.0.1:7447", "unixsock-stream//x")).loopback()
+        ('tcp/127.0.0.1:7447',)
+        """
+        return tuple(
+            ep for ep in (*self.listen, *self.connect) if _local(ep) and not ep.startswith("unix")
+        )
 
     def unix_sockets(self) -> tuple[str, ...]:
         """Paths of the unix sockets we listen on.
@@ -97,8 +136,9 @@ class Transport:
         )
 
     def exposed(self) -> tuple[str, ...]:
-        """Listen endpoints that would carry the bus in clear text beyond this machine."""
-        return tuple(ep for ep in self.reachable() if _plain(ep))
+        """Endpoints, listened on or dialled, that would carry the bus in clear text beyond
+        this machine."""
+        return tuple(ep for ep in (*self.listen, *self.connect) if _plain(ep) and not _local(ep))
 
     def config(self) -> dict[str, Any]:
         """The whole zenoh configuration as nested data."""
@@ -107,7 +147,10 @@ class Transport:
             "listen": {"endpoints": list(self.listen)},
             "connect": {"endpoints": list(self.connect)},
             "scouting": {"multicast": {"enabled": False}, "gossip": {"enabled": False}},
-            "transport": {"shared_memory": {"enabled": self.shared_memory}},
+            "transport": {
+                "shared_memory": {"enabled": self.shared_memory},
+                "link": {"rx": {"max_message_size": MAX_LINK_MESSAGE}},
+            },
         }
         if self.tls_ca:
             tls: dict[str, Any] = {"root_ca_certificate": self.tls_ca}
@@ -119,7 +162,7 @@ class Transport:
                     "connect_private_key": self.tls_key,
                 }
             tls["enable_mtls"] = self.mtls and bool(self.tls_cert)  # else no cert is sent
-            cfg["transport"]["link"] = {"tls": tls}
+            cfg["transport"]["link"]["tls"] = tls
         usrpwd: dict[str, Any] = {}
         if self.user:
             usrpwd |= {"user": self.user, "password": self.password}
@@ -138,6 +181,10 @@ class Transport:
 
 def _plain(endpoint: str) -> bool:
     return endpoint.split("/", 1)[0] in _PLAIN
+
+
+def _tls(endpoint: str) -> bool:
+    return endpoint.startswith(("tls/", "quic/"))
 
 
 def _local(endpoint: str) -> bool:

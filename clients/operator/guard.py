@@ -31,7 +31,7 @@ from collections.abc import Awaitable, Callable, Iterable
 
 from aiohttp import hdrs, web
 
-__all__ = ["ASSETS", "COOKIE", "INDEX", "Guard", "allowed_hosts"]
+__all__ = ["ASSETS", "COOKIE", "INDEX", "Guard", "Notes", "allowed_hosts"]
 
 _LOGGER = logging.getLogger(__name__)
 
@@ -98,6 +98,20 @@ def allowed_hosts(
     return frozenset(allowed)
 
 
+class Notes:
+    """Refusals for the log: the first of each kind is a warning, an attack's flood goes to
+    debug (one line each, never a traceback)."""
+
+    def __init__(self, logger: logging.Logger) -> None:
+        self._logger = logger
+        self._warned: set[str] = set()
+
+    def __call__(self, kind: str, what: str) -> None:
+        level = logging.DEBUG if kind in self._warned else logging.WARNING
+        self._warned.add(kind)
+        self._logger.log(level, "cyborg operator: refused %s", what)
+
+
 class Guard:
     """The console's checks as one aiohttp middleware; :meth:`bind` once the port is known."""
 
@@ -105,7 +119,7 @@ class Guard:
         self.token = token or secrets.token_urlsafe(32)
         self.cookie = COOKIE
         self.hosts: frozenset[tuple[str, int | None]] = frozenset()  # nothing until bound
-        self._warned: set[str] = set()
+        self._note = Notes(_LOGGER)
 
     def bind(self, host: str, port: int, public: Iterable[str] = ()) -> None:
         """Answer the Host values of ``allowed_hosts(host, port, public)``."""
@@ -188,12 +202,6 @@ class Guard:
         self._note(kind, f"{request.method} {request.path!r}: {why}")
         result = {401: "UNAUTHORIZED", 403: "FORBIDDEN", 415: "UNSUPPORTED"}[status]
         return web.json_response({"ok": False, "result": result, "error": why}, status=status)
-
-    def _note(self, kind: str, what: str) -> None:
-        """The first refusal of each kind is a warning; an attack's flood goes to debug."""
-        level = logging.DEBUG if kind in self._warned else logging.WARNING
-        self._warned.add(kind)
-        _LOGGER.log(level, "cyborg operator: refused %s", what)
 
 
 def _page(status: int, text: str) -> web.Response:

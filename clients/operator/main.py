@@ -12,6 +12,7 @@ from aiohttp import web
 from ..link import transport
 from ..rigclient import RigClient
 from .guard import Guard, allowed_hosts
+from .limits import IDLE_TIMEOUT_S, Doors, DoorsSite
 from .server import Operator
 
 __all__ = ["run_operator"]
@@ -33,16 +34,19 @@ async def _serve(args: argparse.Namespace) -> int:
     with RigClient.open(link, args.rig, args.name) as client:
         guard = Guard()
         operator = Operator(client, guard)
-        runner = web.AppRunner(operator.app(), access_log=None)
+        doors = Doors()
+        app = operator.app()
+        doors.install(app)
+        runner = web.AppRunner(app, access_log=None, keepalive_timeout=IDLE_TIMEOUT_S)
         await runner.setup()
+        site = DoorsSite(runner, args.host, args.port, doors)
         try:
-            site = web.TCPSite(runner, args.host, args.port)
             await site.start()
         except OSError as exc:
             await runner.cleanup()
             print(f"cyborg operator: cannot listen on {args.host}:{args.port}: {exc.strerror}")
             return 1
-        host, port = runner.addresses[0][:2]
+        host, port = site.addresses[0]
         bound = f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
         guard.bind(args.host, port, [*public, bound])
         print(

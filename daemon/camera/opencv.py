@@ -16,6 +16,8 @@ from urllib.parse import parse_qs, urlsplit
 import cv2
 import numpy as np
 
+from protocol.redact import redact_url
+
 from .base import Camera, CameraError, CameraUnavailableError, Exposure, Frame
 from .visca import ViscaError, ViscaZoom
 
@@ -60,6 +62,8 @@ class OpenCvCamera(Camera):
     ) -> None:
         """``zoom``: the lens's zoom, driven on its own line (VISCA)."""
         self.source = source
+        self.name = redact_url(str(source))
+        """The source as messages and logs show it: no credentials."""
         self.lens = zoom
         self.api = api
         self.loop = loop
@@ -85,7 +89,7 @@ class OpenCvCamera(Camera):
         cap = cv2.VideoCapture(self.source, self.api)
         if not cap.isOpened():
             cap.release()
-            raise CameraUnavailableError(f"camera {self.source}: OpenCV cannot open it")
+            raise CameraUnavailableError(f"camera {self.name}: OpenCV cannot open it")
         return cap
 
     async def open(self) -> None:
@@ -154,10 +158,10 @@ class OpenCvCamera(Camera):
             while image is None:
                 if attempt >= self.retries:
                     raise CameraUnavailableError(
-                        f"camera {self.source}: no frame after {attempt} reconnect attempt(s)"
+                        f"camera {self.name}: no frame after {attempt} reconnect attempt(s)"
                     )
                 attempt += 1
-                _LOGGER.warning("camera %s: read failed, reconnecting (%d)", self.source, attempt)
+                _LOGGER.warning("camera %s: read failed, reconnecting (%d)", self.name, attempt)
                 await asyncio.sleep(self.backoff * attempt)
                 try:
                     await self._reopen()

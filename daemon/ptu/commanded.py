@@ -83,6 +83,11 @@ class CommandedPtu(PanTiltUnit):
             raise command_error(f"{command}{'' if value is None else value}", reply.text)
         return reply
 
+    async def _resync(self) -> bool:
+        """Bring the link back in step after a doubtful reply; False if the unit answers
+        nothing. In-process there is no line to fall out of step."""
+        return True
+
     async def _int(self, command: str) -> int:
         reply = await self._do(command, numeric=True)
         value = reply_int(reply)
@@ -105,7 +110,7 @@ class CommandedPtu(PanTiltUnit):
         limits = await self._do("L")
         version = (await self._do("V")).text
         self._info = PtuInfo(axes[0], axes[1], "DISABLED" not in limits.text.upper(), version)
-        pos = (await self._int("PP"), await self._int("TP"))
+        pos = (await self._axis_position(0), await self._axis_position(1))
         self._last = pos
         self._target = [pos[0], pos[1]]
         _LOGGER.info(
@@ -120,6 +125,35 @@ class CommandedPtu(PanTiltUnit):
 
     def _axis(self, index: int) -> AxisInfo:
         return self.info.pan if index == 0 else self.info.tilt
+
+    def _reachable(self, index: int) -> tuple[int, int]:
+        """Positions the head can report: the limits the unit gave at connect, or with them
+        disabled, up to the mechanical stops an eighth of the span beyond (the unit does
+        not report those)."""
+        ax = self._axis(index)
+        slack = 0 if self.info.limits_enabled else (ax.max_pos - ax.min_pos) // 8
+        return ax.min_pos - slack, ax.max_pos + slack
+
+    async def _axis_position(self, index: int) -> int:
+        """One axis's position. A value the head cannot be at is a corrupted or stray line,
+        never a position: the link is resynchronised and asked once more, then it is a
+        ``PtuProtocolError``, so an impossible pose is never published or archived."""
+        command = f"{'PT'[index]}P"
+        lo, hi = self._reachable(index)
+        for attempt in (1, 2):
+            value = await self._int(command)
+            if lo <= value <= hi:
+                return value
+            _LOGGER.warning(
+                "PTU answered %s with %d, outside %d..%d: %s",
+                command,
+                value,
+                lo,
+                hi,
+                "resynchronising and asking again" if attempt == 1 else "refused",
+            )
+            await self._resync()
+        raise PtuProtocolError(f"{command}: the unit twice reported a position outside {lo}..{hi}")
 
     def _positions(self, pan: float | None, tilt: float | None) -> list[int | None]:
         out: list[int | None] = []
@@ -149,7 +183,7 @@ class CommandedPtu(PanTiltUnit):
     # -- verbs ---------------------------------------------------------------------------
 
     async def position(self) -> PtuPosition:
-        pan, tilt = await self._int("PP"), await self._int("TP")
+        pan, tilt = await self._axis_position(0), await self._axis_position(1)
         moving = (pan, tilt) != self._last or any(
             t is not None and t != p for t, p in zip(self._target, (pan, tilt), strict=True)
         )

@@ -4,8 +4,9 @@
 
     PtuError                    root: anything that went wrong talking to a PTU
     ├── PtuConnectionError      the link is down (unplugged, port missing, hung up)
-    ├── PtuTimeoutError         no reply in time; the driver resynchronises afterwards
-    ├── PtuProtocolError        a reply that cannot be understood (e.g. no number in it)
+    ├── PtuTimeoutError         no reply in time, after any retries; the line was resynchronised
+    ├── PtuProtocolError        a reply that cannot be understood (no number in it, a position
+    │                           outside the limits the unit reported), even when asked again
     └── PtuCommandError         the unit answered ``! message``; nothing was executed
         ├── PtuLimitError       position outside the soft limits (also raised before sending)
         ├── PtuSpeedError       speed or acceleration outside the unit's bounds
@@ -38,11 +39,11 @@ class PtuConnectionError(PtuError):
 
 
 class PtuTimeoutError(PtuError):
-    """The unit did not answer in time."""
+    """The unit did not answer in time (retry-safe commands were sent again first)."""
 
 
 class PtuProtocolError(PtuError):
-    """The unit answered something the driver cannot interpret."""
+    """The unit answered something the driver cannot interpret or believe."""
 
 
 class PtuCommandError(PtuError):

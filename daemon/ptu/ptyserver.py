@@ -2,12 +2,14 @@
 
 The real serial driver opens the pty's slave (or a stable symlink to it, like the udev
 ``/dev/ptu`` link on the rig) and cannot tell it from a unit on a USB adapter. Faults
-are :class:`Fault` rules matched against the commands the unit receives: garbage before a
-reply, a dropped reply, a slow reply, a hang-up (the pty closes, the link disappears and
-comes back later on a new pty, like an unplugged adapter). A power-up banner is printed
-at start and after each come-back. Both directions are paced at the line's baud rate (a reply
-leaves once the command's bytes would have arrived), so command round trips take as long
-as on the real 9600-baud link.
+are :class:`Fault` rules matched against the commands the unit receives: garbage on a line
+of its own before a reply, line noise glued onto a reply (no line end of its own, so the
+reply's line arrives corrupted), a reply rewritten to something else, a dropped reply, a
+slow reply, a hang-up (the pty closes, the link disappears and comes back later on a new
+pty, like an unplugged adapter). :meth:`PtyEmulatorServer.inject` puts noise on the line at
+any moment. A power-up banner is printed at start and after each come-back. Both
+directions are paced at the line's baud rate (a reply leaves once the command's bytes would
+have arrived), so command round trips take as long as on the real 9600-baud link.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import signal
 import tty
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Literal, get_args
 
 from .emulator import Ptu46Emulator
 
@@ -34,7 +36,15 @@ BANNER = (
 _TICK_BUSY = 0.002
 _TICK_IDLE = 0.02
 
-Action = Literal["garbage", "drop", "delay", "hangup"]
+Action = Literal["garbage", "noise", "rewrite", "drop", "delay", "hangup"]
+_ACTIONS = get_args(Action)
+NOISE = b"\xf3\x1b~#\x9c%\xe2*\x7f\x8a5\xd1!\xbb\x06\x93"
+"""A 16-byte burst as a cheap USB-serial adapter picks it up: no line end of its own."""
+_DATA: dict[str, bytes] = {
+    "garbage": b"\x00\xfe#%garbage~\r\n",
+    "noise": NOISE,
+    "rewrite": b"* 99999\r\n",
+}
 
 
 @dataclass
@@ -42,18 +52,23 @@ class Fault:
     """One injected fault: ``action`` on the ``nth`` command starting with ``match``.
 
     ``count`` consecutive matches are affected (0 = every match from the nth on).
-    ``data`` is the garbage written; ``seconds`` the reply delay or the hang-up length.
+    ``data`` is what ``garbage`` and ``noise`` write before the reply and what ``rewrite``
+    sends instead of it (each action has a default); ``seconds`` the reply delay or the
+    hang-up length.
     """
 
     action: Action
     match: str = ""
     nth: int = 1
     count: int = 1
-    data: bytes = b"\x00\xfe#%garbage~\r\n"
+    data: bytes = b""
     seconds: float = 0.5
     seen: int = 0
     fired: int = 0
     """How often it struck: a fault test checks its fault really happened."""
+
+    def __post_init__(self) -> None:
+        self.data = self.data or _DATA.get(self.action, b"")
 
     def fires(self, token: str) -> bool:
         if not token.upper().startswith(self.match.upper()):
@@ -73,7 +88,7 @@ def parse_fault(spec: str) -> Fault:
     ('delay', 'TP', 3, 0.8)
     """
     parts = spec.split(":")
-    if parts[0] not in ("garbage", "drop", "delay", "hangup") or len(parts) > 4:
+    if parts[0] not in _ACTIONS or len(parts) > 4:
         raise ValueError(f"bad fault {spec!r}: want action[:match[:nth[:seconds]]]")
     fault = Fault(parts[0])  # type: ignore[arg-type]
     if len(parts) > 1:
@@ -216,8 +231,10 @@ class PtyEmulatorServer:
         delay = wire
         for f in fired:
             _LOGGER.info("injected fault: %s on %r", f.action, token)
-            if f.action == "garbage":
+            if f.action in ("garbage", "noise"):
                 self._send(f.data)
+            elif f.action == "rewrite":
+                out = f.data
             elif f.action == "drop":
                 out = b""
             elif f.action == "delay":

@@ -4,16 +4,28 @@
 (same ``open_serial_connection`` API; it opens the port off the event loop).
 
 One request is in flight at a time. Replies are matched to their command (by echo when
-the unit echoes, by shape otherwise); banners, garbage and stale lines are skipped, and
-after a timeout the driver resynchronises (a bare delimiter, a pause, a flush). When the
-port goes away the driver marks itself DISCONNECTED, fails the pending request with
-``PtuConnectionError`` and reconnects in the background with capped, jittered backoff.
+the unit echoes, by shape otherwise); banners, garbage and stale lines are skipped.
+
+A reply lost to the line (noise glued onto it, dropped, or late) costs a retry, not a
+station. Once a line that is not the reply has been seen, the reply gets a short grace
+to follow it; after that, or after the full timeout, the driver resynchronises: it ends
+any half-typed command and asks :data:`~daemon.ptu.wire.PROBE`, discarding every line up
+to the answer, so no late reply is left to answer a later request. Then it sends the
+command again if repeating it is harmless (queries, settings, absolute moves: see
+:func:`~daemon.ptu.wire.retry_safe`), up to ``retries`` times, each logged. Relative moves
+are never sent twice: a lost reply fails them with ``PtuTimeoutError``. A unit that
+answers no probe is gone, and the request fails at once.
+
+When the port goes away the driver marks itself DISCONNECTED, fails the pending request
+with ``PtuConnectionError`` (never retried) and reconnects in the background with capped,
+jittered backoff.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import itertools
 import logging
 import random
 
@@ -25,10 +37,13 @@ from .commanded import CommandedPtu
 from .errors import PtuConnectionError, PtuError, PtuTimeoutError
 from .wire import (
     DELIMITER,
+    PROBE,
     LineFramer,
     Reply,
+    answers_probe,
     format_command,
     match_reply,
+    retry_safe,
     split_limit_events,
 )
 
@@ -37,7 +52,13 @@ __all__ = ["SerialPtu"]
 _LOGGER = logging.getLogger(__name__)
 
 SETTLE = 0.15
-"""Seconds to wait after a bare delimiter before flushing (connect and resync)."""
+"""Seconds to wait after the first bare delimiter at connect, for a banner to finish."""
+GRACE = 0.2
+"""Seconds a reply may still take once a line that is not it arrived (garbage on a line of
+its own comes just before the reply; noise glued onto the reply means it will not come).
+Ten times the longest terse reply at 9600 baud, twice a USB adapter's latency timer."""
+PROBES = 3
+"""Probes per resynchronisation: a unit that answers none is gone."""
 
 
 class SerialPtu(CommandedPtu):
@@ -49,13 +70,16 @@ class SerialPtu(CommandedPtu):
         baudrate: int = 9600,
         *,
         command_timeout: float = 1.0,
+        retries: int = 2,
         reconnect: bool = True,
         backoff: tuple[float, float] = (0.1, 5.0),
     ) -> None:
+        """``retries``: extra attempts for a retry-safe command whose reply was lost."""
         super().__init__()
         self.port = port
         self.baudrate = baudrate
         self.command_timeout = command_timeout
+        self.retries = retries
         self.reconnect = reconnect
         self.backoff = backoff
         self._lock = asyncio.Lock()
@@ -66,6 +90,8 @@ class SerialPtu(CommandedPtu):
         self._closing = False
         self.reconnects = 0
         self.resyncs = 0
+        self.retried = 0
+        """Commands sent again after a lost reply (each one logged)."""
 
     # -- lifecycle -----------------------------------------------------------------------
 
@@ -85,7 +111,7 @@ class SerialPtu(CommandedPtu):
             try:
                 await asyncio.wait_for(self.halt(), 1.0)
             except (PtuError, TimeoutError) as exc:
-                _LOGGER.warning("could not halt the PTU before closing: %s", exc)
+                _LOGGER.warning("could not halt the PTU before closing: %s", exc or "no answer")
         await self._drop_link()
         self._state = LinkState.DISCONNECTED
 
@@ -206,20 +232,43 @@ class SerialPtu(CommandedPtu):
                 return
             self._stray(line)
 
-    def _stray(self, line: str) -> None:
-        """A line nobody asked for: report limit events, log the rest."""
+    def _stray(self, line: str) -> bool:
+        """A line nobody asked for: report limit events, log the rest; True if there was a
+        rest (something that may have been a reply)."""
         rest, events = split_limit_events(line)
         for axis in events:
             self._limit_event(axis)
         if rest:
             _LOGGER.debug("PTU: ignored %r", line)
+        return bool(rest)
 
-    async def _resync(self) -> None:
+    async def _line(self, during: str) -> str:
+        line = await self._lines.get()
+        if line is None:
+            self._lines.put_nowait(None)
+            raise PtuConnectionError(f"PTU on {self.port} went away during {during}")
+        return line
+
+    async def _resync(self) -> bool:
+        async with self._lock:
+            return await self._realign()
+
+    async def _realign(self) -> bool:
+        """End any half-typed command, then ask the probe and discard every line up to its
+        answer: whatever the unit still owed has arrived by then. False if it answered no
+        probe (a late answer to an earlier probe counts: it comes after the same lines)."""
         self.resyncs += 1
-        with contextlib.suppress(PtuConnectionError):
-            await self._write(DELIMITER)
-        await asyncio.sleep(SETTLE)
-        self._flush()
+        probe = DELIMITER + format_command(PROBE)
+        for _ in range(PROBES):
+            await self._write(probe)
+            try:
+                async with asyncio.timeout(self.command_timeout):
+                    while not answers_probe(line := await self._line("a resync")):
+                        self._stray(line)
+                return True
+            except TimeoutError:
+                continue
+        return False
 
     async def _request(
         self,
@@ -229,28 +278,57 @@ class SerialPtu(CommandedPtu):
         numeric: bool = False,
         timeout: float | None = None,
     ) -> Reply:
+        """Send, await the reply; a lost reply is retried only if :func:`retry_safe`
+        (never a relative move). ``PtuConnectionError`` is never retried."""
         if self._state not in (LinkState.READY, LinkState.CONNECTING):
             raise PtuConnectionError(f"PTU on {self.port} is {self._state.value}")
         data = format_command(command, value)
         sent = data.decode().strip()
+        retries = self.retries if retry_safe(command, value) else 0
         async with self._lock:
-            self._flush()
-            await self._write(data)
-            try:
-                async with asyncio.timeout(timeout or self.command_timeout):
-                    while True:
-                        line = await self._lines.get()
-                        if line is None:
-                            self._lines.put_nowait(None)
-                            raise PtuConnectionError(f"PTU on {self.port} went away during {sent}")
-                        reply = match_reply(line, sent, numeric)
-                        if reply is None:
-                            self._stray(line)
-                            continue
-                        if command != "R":
-                            for axis in reply.limit_events:
-                                self._limit_event(axis)
+            for attempt in itertools.count(1):
+                try:
+                    reply = await self._exchange(
+                        data, sent, numeric, timeout or self.command_timeout, retries > 0
+                    )
+                    break
+                except PtuTimeoutError as exc:
+                    if not await self._realign():
+                        raise PtuTimeoutError(f"{exc}; the unit answers nothing") from None
+                    if attempt > retries:
+                        raise
+                    self.retried += 1
+                    _LOGGER.warning(
+                        "%s; line resynchronised, sending it again (%d of %d)",
+                        exc,
+                        attempt,
+                        retries,
+                    )
+        if command != "R":
+            for axis in reply.limit_events:
+                self._limit_event(axis)
+        return reply
+
+    async def _exchange(
+        self, data: bytes, sent: str, numeric: bool, timeout: float, hurry: bool
+    ) -> Reply:
+        """One attempt. ``hurry``: after a line that is not the reply, wait only
+        :data:`GRACE` more (it can be retried, so a lost reply need not cost the timeout)."""
+        self._flush()
+        await self._write(data)
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + timeout
+        garbled = False
+        try:
+            async with asyncio.timeout_at(deadline) as scope:
+                while True:
+                    line = await self._line(sent)
+                    reply = match_reply(line, sent, numeric)
+                    if reply is not None:
                         return reply
-            except TimeoutError:
-                await self._resync()
-                raise PtuTimeoutError(f"PTU on {self.port}: no reply to {sent}") from None
+                    if self._stray(line) and hurry:
+                        garbled = True
+                        scope.reschedule(min(deadline, loop.time() + GRACE))
+        except TimeoutError:
+            what = "no readable reply" if garbled else "no reply"
+            raise PtuTimeoutError(f"PTU on {self.port}: {what} to {sent}") from None

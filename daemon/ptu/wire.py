@@ -7,6 +7,11 @@ the unit's message). With echo on, the line starts with the command as typed. ``
 ``!T`` tokens are limit events that can appear anywhere, unsolicited. Numbers are taken
 from the text by pattern, never by matching whole sentences, because wording differs
 between firmware versions and between verbose and terse feedback.
+
+Line noise is told from replies by shape: a reply is printable ASCII, a terse value is
+a clean number, and a command carrying a value is answered by a bare ``*``. A line that
+fails these is not a reply, whatever digits it holds, so a burst glued onto a reply
+costs a retry, never a wrong number.
 """
 
 from __future__ import annotations
@@ -16,18 +21,32 @@ from dataclasses import dataclass
 
 __all__ = [
     "DELIMITER",
+    "PROBE",
     "LineFramer",
     "Reply",
+    "answers_probe",
     "format_command",
     "match_reply",
     "parse_reply",
     "reply_float",
     "reply_int",
+    "retry_safe",
     "split_limit_events",
 ]
 
 DELIMITER = b" "
+PROBE = "L"
+"""The question a driver resynchronises with: harmless, always answered, and answered in
+words (no number, not a bare ``*``), so its answer cannot pass for any other reply and
+no other reply can pass for it."""
 _COMMAND = re.compile(r"[A-Z@_]{1,4}\Z")
+_WITH_VALUE = re.compile(r"[A-Z@_]+[-+]?\d+\Z", re.IGNORECASE)
+_TERSE = re.compile(r"[-+]?\d+(?:\.\d+)?(?:\s*,\s*[-+]?\d+(?:\.\d+)?)*\Z")
+_RELATIVE = frozenset({"PO", "TO", "PD", "TD"})
+"""With a value these add to where the axis is (or to its speed): sent twice, done twice."""
+_NOT_REPEATED = frozenset({"A", "R", "DS", "DR", "DF"})
+"""``A`` waits for motion and ``R`` recalibrates (their silence is the head's, not the
+line's); the ``D`` commands write or reload the EEPROM, which wears."""
 _LIMIT_EVENT = re.compile(r"!([PT])(?=[!*\s]|$)")
 _NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?")
 _UNIT_VALUE = re.compile(r"\bis\s+([-+]?\d+(?:\.\d+)?)", re.IGNORECASE)
@@ -49,6 +68,21 @@ def format_command(command: str, value: int | None = None) -> bytes:
     if isinstance(value, bool) or not isinstance(value, int):
         raise ValueError(f"PTU arguments are integers, got {value!r}")
     return f"{name}{value}".encode("ascii") + DELIMITER
+
+
+def retry_safe(command: str, value: int | None = None) -> bool:
+    """Whether sending ``command`` again, when its reply was lost, changes nothing more.
+
+    Queries, settings and absolute moves are; relative moves (``PO``/``TO`` with a value)
+    and speed offsets are not: the first copy may have been executed.
+
+    >>> retry_safe("PP"), retry_safe("PP", 500), retry_safe("PO", 500), retry_safe("PO")
+    (True, True, False, True)
+    """
+    name = command.upper()
+    if value is not None and name in _RELATIVE:
+        return False
+    return name not in _NOT_REPEATED
 
 
 @dataclass(frozen=True)
@@ -86,7 +120,8 @@ def parse_reply(line: str, sent: str | None = None) -> Reply | None:
     ``sent`` is the command as written, without delimiter. A line echoing a *different*
     command is stale and yields ``None``, so a leftover ``PP1000 *`` cannot answer a ``PP``
     query. Lines that are neither ``*`` nor ``!`` (banners, garbage) and lines holding only
-    unsolicited limit events also yield ``None``.
+    unsolicited limit events also yield ``None``, and so do lines with bytes no unit
+    prints (control characters, anything beyond ASCII): line noise.
 
     >>> parse_reply("PP * Current Pan position is -500", "PP")
     Reply(ok=True, text='Current Pan position is -500', limit_events=(), echo='PP')
@@ -96,9 +131,11 @@ def parse_reply(line: str, sent: str | None = None) -> Reply | None:
     False
     >>> parse_reply("R !T!T!P!P*", "R").limit_events
     ('T', 'T', 'P', 'P')
+    >>> parse_reply("\x1b~#\ufffd* 1234", "PP") is None
+    True
     """
     line = line.strip()
-    if not line or len(line) > MAX_LINE:
+    if not line or len(line) > MAX_LINE or not (line.isascii() and line.isprintable()):
         return None
     echo = None
     if line[0] not in "*!":
@@ -120,14 +157,32 @@ def match_reply(line: str, sent: str, numeric: bool = False) -> Reply | None:
     """The reply to ``sent`` in ``line``, or ``None`` if the line answers something else.
 
     ``numeric``: ``sent`` is a query, so a success without a number is stale, not its answer.
+    A command carrying a value (a move, a setting) is answered by a bare ``*``, so a
+    success with text is some query's answer, stale.
 
     >>> match_reply("*", "PP", numeric=True) is None, match_reply("* 5", "PP", numeric=True).text
     (True, '5')
+    >>> match_reply("* 5", "PP100") is None, match_reply("*", "PP100").ok
+    (True, True)
     """
     reply = parse_reply(line, sent)
-    if reply is None or (numeric and reply.ok and reply_float(reply) is None):
+    if reply is None or not reply.ok:
+        return reply
+    if numeric and reply_float(reply) is None:
+        return None
+    if reply.text and _WITH_VALUE.match(sent):
         return None
     return reply
+
+
+def answers_probe(line: str) -> bool:
+    """Whether ``line`` is the unit's answer to :data:`PROBE` (words, no number).
+
+    >>> answers_probe("* Limit bounds are ENABLED (soft limits enabled)"), answers_probe("* 12")
+    (True, False)
+    """
+    reply = parse_reply(line, PROBE)
+    return bool(reply and reply.ok and reply.text and reply_float(reply) is None)
 
 
 def reply_int(reply: Reply) -> int | None:
@@ -148,9 +203,16 @@ def reply_int(reply: Reply) -> int | None:
 def reply_float(reply: Reply) -> float | None:
     """The numeric value of a query reply (resolution is fractional).
 
+    A terse reply (no words) must be numbers alone: digits run into other signs are
+    noise, not a value.
+
     >>> reply_float(parse_reply("* 185.1428 seconds arc per Pan position"))
     185.1428
+    >>> reply_float(parse_reply("* 12#%34")) is None
+    True
     """
+    if not any(c.isalpha() for c in reply.text) and not _TERSE.match(reply.text):
+        return None
     m = _UNIT_VALUE.search(reply.text)
     if m:
         return float(m.group(1))

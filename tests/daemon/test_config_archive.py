@@ -162,6 +162,7 @@ def test_archive_recovers_interrupted_stations(tmp_path: Path) -> None:
     done.finish("complete")
     (done.folder / ".analysis.partial").mkdir()
     assert Archive(tmp_path / "a").open() == [f"{session}/st01-300m"]
+    assert not (done.folder / ".analysis.partial").exists()  # left by a crash: gone
     m = json.loads((tmp_path / "a" / session / "st01-300m" / "manifest.json").read_text())
     assert m["status"] == "incomplete" and "stopped" in m["reason"]
     assert Archive(tmp_path / "a").open() == []

@@ -24,23 +24,11 @@ from daemon.ptu import (
     SerialPtu,
     open_ptu,
 )
-from daemon.ptu.emulated import TcpPtu
 from daemon.ptu.emulator import Ptu46Emulator
 from daemon.ptu.models import MODELS
 from daemon.ptu.ptyserver import Fault
 
 pytestmark = pytest.mark.timeout(60)
-
-
-@pytest.fixture(params=["pty", "tcp"])
-async def ptu(request):
-    """The emulator behind the real driver: on a pty, and behind a TCP line server as a
-    PTU-E46 or a terminal server is reached (``tcp://``, pyserial's ``socket://``)."""
-    kind = PtyPtu if request.param == "pty" else TcpPtu
-    unit = kind(Ptu46Emulator(time_scale=20), baud=0)
-    await unit.open()
-    yield unit
-    await unit.close()
 
 
 async def test_connect_queries_the_unit(ptu: PtyPtu) -> None:
@@ -156,15 +144,21 @@ async def test_garbage_and_banner_are_skipped(ptu: PtyPtu) -> None:
     assert (await ptu.position()).tilt_pos == ptu.server.emulator.tilt.position
 
 
-async def test_dropped_reply_times_out_then_resyncs(ptu: PtyPtu) -> None:
+async def test_dropped_reply_is_resynced_and_retried(ptu: PtyPtu) -> None:
     ptu.command_timeout = 0.3
     drop = Fault("drop", "PP")
     ptu.server.faults.append(drop)
+    here = await ptu.position()
+    assert drop.fired == 1
+    assert (ptu.resyncs, ptu.retried) == (1, 1)
+    assert here.pan_pos == ptu.server.emulator.pan.position
+    # A unit that never answers PP: bounded retries, then the timeout.
+    ptu.server.faults.append(always := Fault("drop", "PP", count=0))
     with pytest.raises(PtuTimeoutError, match="no reply to PP"):
         await ptu.position()
-    assert drop.fired == 1
-    assert ptu.resyncs == 1
+    assert always.fired == 1 + ptu.retries
     assert ptu.state is LinkState.READY
+    ptu.server.faults.remove(always)
     here = await ptu.position()
     assert here.pan_pos == ptu.server.emulator.pan.position
 
@@ -176,11 +170,9 @@ async def test_slow_replies(ptu: PtyPtu) -> None:
     assert (await ptu.position()).tilt_pos == 0
     assert slow.fired == 1
     ptu.server.faults.append(slower)
-    with pytest.raises(PtuTimeoutError):
-        await ptu.position()
-    assert slower.fired == 1
-    await asyncio.sleep(0.3)  # the late reply arrives; it must not answer the next query
-    await ptu.move_to(0.0, 10.0)
+    assert (await ptu.position()).tilt_pos == 0  # timed out, resynchronised, asked again
+    assert (slower.fired, ptu.retried) == (1, 1)
+    await ptu.move_to(0.0, 10.0)  # the late reply was drained: it answers nothing
     assert (await ptu.position()).tilt_pos == ptu.server.emulator.tilt.position
 
 

@@ -1,0 +1,90 @@
+"""The daemon's bus with a subscriber that stopped reading: nothing it sends may block the
+event loop, since a HALT waits behind it.
+
+The daemon's side is the real :class:`Bus` on a real zenoh session; the stalled viewer is a
+real process subscribed to everything, frozen with SIGSTOP. zenoh is told never to give up
+the stalled link (``wait_before_close`` of an hour, where the default is 5 s), so a put
+that blocks would block for the rest of the test: every step below either finishes or the
+test times out.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import signal
+from collections.abc import Iterator
+
+import pytest
+import zenoh
+
+from clients.launch import free_port, watcher
+from daemon.bus import OUTBOX_BOUND, Bus
+from protocol.envelope import decode, encode
+from protocol.keys import Keys
+from protocol.messages import Ack, Event, FrameHeader, PtuState
+from protocol.transport import Transport
+
+pytestmark = pytest.mark.timeout(120)
+
+NEVER_CLOSE_US = 3600 * 10**6
+
+
+@pytest.fixture
+def bus() -> Iterator[tuple[Bus, str]]:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    cfg = zenoh.Config.from_json5(Transport(listen=(endpoint,)).json5())
+    cfg.insert_json5(
+        "transport/link/tx/queue/congestion_control/block/wait_before_close", str(NEVER_CLOSE_US)
+    )
+    bus = Bus(zenoh.open(cfg), Keys("stall"))
+    try:
+        yield bus, endpoint
+    finally:
+        bus.close()
+
+
+async def _matched(bus: Bus) -> None:
+    async with asyncio.timeout(30):
+        while not bus.frame_wanted():
+            await asyncio.sleep(0.05)
+
+
+async def test_a_frozen_viewer_neither_blocks_the_loop_nor_a_command(bus) -> None:
+    bus, endpoint = bus
+
+    async def handler(client: str, verb: str, payload: bytes) -> bytes:
+        return bus.envelope(Ack("OK", f"{verb} from {client}"))
+
+    serving = asyncio.create_task(bus.serve(bus.declare_commands(), handler))
+    try:
+        async with watcher(endpoint, f"{bus.keys.root}/**") as viewer:
+            await _matched(bus)
+            viewer.send_signal(signal.SIGSTOP)
+            jpeg = bytes(200_000)
+            header = FrameHeader(1, 720, 576, 0.0, 0.0)
+            # Far more than the link's buffers hold: frames fill them, then every reliable
+            # message waits for a reader that never comes.
+            for i in range(4 * OUTBOX_BOUND):
+                bus.publish_frame(jpeg, header)
+                bus.publish(bus.keys.ptu_state, PtuState(0.0, 0.0, False), latest_wins=True)
+                bus.publish(bus.keys.events, Event("info", f"event {i}"))
+                await asyncio.sleep(0)
+            # The reliable messages' bound held: the oldest waiting were dropped, not queued
+            # without end (and not blocking, or this line would never be reached).
+            async with asyncio.timeout(30):
+                while bus._outbox.dropped == 0:
+                    bus.publish(bus.keys.events, Event("info", "more"))
+                    await asyncio.sleep(0.01)
+            # A healthy client's command is answered while the viewer is still frozen.
+            cfg = Transport("client", connect=(endpoint,)).json5()
+            with zenoh.open(zenoh.Config.from_json5(cfg)) as client:
+                key = bus.keys.cmd("alice", "ptu/halt")
+                replies = await asyncio.to_thread(
+                    lambda: list(client.get(key, payload=encode("ptu.halt", {}), timeout=30))
+                )
+            assert replies and replies[0].ok is not None
+            assert decode(replies[0].ok.payload.to_bytes()).body["detail"] == "ptu/halt from alice"
+            assert viewer.returncode is None  # still frozen: nothing waited for it
+    finally:
+        serving.cancel()
+        await asyncio.gather(serving, return_exceptions=True)
