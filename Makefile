@@ -17,12 +17,12 @@ $(STAMP): pyproject.toml | $(PY)
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(PY) -m clients demo --out $(OUT)/demo
+	$(PY) -m cyborg.clients demo --out $(OUT)/demo
 
 # A simulated rig on 127.0.0.1:7447 to try the clients with (Ctrl-C stops it):
 # `.venv/bin/cyborg keypad`, `.venv/bin/cyborg operator`, `.venv/bin/cyborg status`.
 rig: $(STAMP)
-	$(PY) -m daemon run --sim
+	$(PY) -m cyborg.daemon run --sim
 
 test: $(STAMP)
 	$(PY) -m ruff check .

@@ -42,16 +42,16 @@ import tempfile
 import time
 from pathlib import Path
 
-from daemon.archive import Archive
-from daemon.camera import open_camera
-from daemon.config import SurveyConfig
-from daemon.ptu import open_ptu
-from daemon.ptu.geometry import CameraModel, angles_to_pixel
-from daemon.rig import Rig
-from daemon.survey import Survey, SurveyTelemetry
-from daemon.worker import VisionWorker
-from daemon.world import World
-from protocol.messages import ChooseTarget, SurveyStart
+from cyborg.daemon.archive import Archive
+from cyborg.daemon.camera import open_camera
+from cyborg.daemon.config import SurveyConfig
+from cyborg.daemon.pointing.geometry import CameraModel, angles_to_pixel
+from cyborg.daemon.ptu import open_ptu
+from cyborg.daemon.rig import Rig
+from cyborg.daemon.sim.world import World
+from cyborg.daemon.survey.machine import Survey, SurveyTelemetry
+from cyborg.daemon.worker import VisionWorker
+from cyborg.protocol.messages import ChooseTarget, SurveyStart
 
 MEMORY = SurveyConfig().memory
 """The memory weight the rig runs with (``[survey] memory``)."""

@@ -7,8 +7,8 @@ import math
 import cv2
 import numpy as np
 
-from daemon.vision.interest import InterestMap, InterestPoint, find_points
-from daemon.vision.params import VisionParams
+from cyborg.daemon.vision.interest import InterestMap, InterestPoint, find_points
+from cyborg.daemon.vision.params import VisionParams
 
 
 def spectral_residual(bgr: np.ndarray, width: int = 64) -> np.ndarray:

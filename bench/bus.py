@@ -28,13 +28,13 @@ from pathlib import Path
 import zenoh
 
 from bench.stats import latency
-from clients.launch import free_port, launch, simulated_config
-from clients.rigclient import RigClient
-from protocol.envelope import decode
-from protocol.keys import Keys
-from protocol.messages import Hello, PtuGoto, TakeControl
-from protocol.transport import Transport
-from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
+from cyborg.clients.launch import free_port, launch, simulated_config
+from cyborg.clients.rigclient import RigClient
+from cyborg.protocol.envelope import decode
+from cyborg.protocol.keys import Keys
+from cyborg.protocol.messages import Hello, PtuGoto, TakeControl
+from cyborg.protocol.transport import Transport
+from cyborg.protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 FPS = 25
 

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import aiohttp
 
-from clients.launch import free_port, operator
+from cyborg.clients.launch import free_port, operator
 
 RIG = "consolebench"
 TRICKLE_S = 2.0

@@ -24,10 +24,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-from clients.launch import Daemon, free_port, simulated_config, spawn
-from clients.rigclient import RigClient
-from protocol.messages import SurveyStatus
-from protocol.transport import Transport
+from cyborg.clients.launch import Daemon, free_port, simulated_config, spawn
+from cyborg.clients.rigclient import RigClient
+from cyborg.protocol.messages import SurveyStatus
+from cyborg.protocol.transport import Transport
 
 RIG = "edgebench"
 
@@ -42,7 +42,7 @@ async def _rig(tmp: Path, run: int) -> tuple[Daemon, str]:
 async def _survey(endpoint: str, timeout: float) -> asyncio.subprocess.Process:
     """``cyborg survey`` as a script runs it, returned once its first tile is reported."""
     proc = await asyncio.create_subprocess_exec(
-        *(sys.executable, "-m", "clients", "survey", "--rows", "3", "--cols", "4"),
+        *(sys.executable, "-m", "cyborg.clients", "survey", "--rows", "3", "--cols", "4"),
         *("--rig", RIG, "--connect", endpoint, "--name", "script"),
         *("--timeout", f"{timeout:g}", "--json"),
         stdout=asyncio.subprocess.PIPE,

@@ -35,11 +35,11 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from bench.stats import latency
-from clients.launch import Daemon, free_port, launch, simulated_config, watcher
-from clients.rigclient import RigClient, RigError, until_stage
-from protocol.envelope import encode
-from protocol.keys import Keys
-from protocol.messages import (
+from cyborg.clients.launch import Daemon, free_port, launch, simulated_config, watcher
+from cyborg.clients.rigclient import RigClient, RigError, until_stage
+from cyborg.protocol.envelope import encode
+from cyborg.protocol.keys import Keys
+from cyborg.protocol.messages import (
     Hello,
     InterestResult,
     PtuHalt,
@@ -48,8 +48,8 @@ from protocol.messages import (
     SurveyStart,
     TakeControl,
 )
-from protocol.transport import Transport
-from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
+from cyborg.protocol.transport import Transport
+from cyborg.protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 RIG = "fieldbench"
 

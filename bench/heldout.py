@@ -38,7 +38,7 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
-from daemon.scene import Scene, Target
+from cyborg.daemon.sim.scene import Scene, Target
 
 __all__ = ["DESCRIPTIONS", "REGIMES", "SEED_SHAPE", "seed_cliff"]
 

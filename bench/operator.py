@@ -26,10 +26,10 @@ from pathlib import Path
 
 from bench.browser import MISSING, Browser, chromium
 from bench.stats import latency
-from clients.launch import launch, operator, router, simulated_config
-from clients.rigclient import LiveFrame, RigClient
-from protocol.messages import PtuLook, PtuState, TakeControl
-from protocol.transport import Transport
+from cyborg.clients.launch import launch, operator, router, simulated_config
+from cyborg.clients.rigclient import LiveFrame, RigClient
+from cyborg.protocol.messages import PtuLook, PtuState, TakeControl
+from cyborg.protocol.transport import Transport
 
 FPS = 25
 RIG = "opbench"

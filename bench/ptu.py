@@ -32,18 +32,18 @@ import time
 from pathlib import Path
 
 from bench.stats import latency
-from daemon.archive import Archive
-from daemon.camera import open_camera
-from daemon.config import SurveyConfig
-from daemon.ptu import EmulatedPtu, PtyPtu
-from daemon.ptu.commanded import CommandedPtu
-from daemon.ptu.emulator import Ptu46Emulator
-from daemon.ptu.motion import move_time
-from daemon.ptu.ptyserver import Fault
-from daemon.rig import Rig
-from daemon.survey import Survey, SurveyTelemetry
-from daemon.worker import VisionWorker
-from protocol.messages import SurveyStart
+from cyborg.daemon.archive import Archive
+from cyborg.daemon.camera import open_camera
+from cyborg.daemon.config import SurveyConfig
+from cyborg.daemon.ptu import EmulatedPtu, PtyPtu
+from cyborg.daemon.ptu.commanded import CommandedPtu
+from cyborg.daemon.ptu.emulator import Ptu46Emulator
+from cyborg.daemon.ptu.motion import move_time
+from cyborg.daemon.ptu.ptyserver import Fault
+from cyborg.daemon.rig import Rig
+from cyborg.daemon.survey.machine import Survey, SurveyTelemetry
+from cyborg.daemon.worker import VisionWorker
+from cyborg.protocol.messages import SurveyStart
 
 MOVES = [("pan", 5.0), ("pan", 30.0), ("pan", 90.0), ("pan", 300.0), ("tilt", 20.0), ("tilt", 70.0)]
 SURVEY_TIME_SCALE = 10.0

@@ -68,8 +68,7 @@ from bench.baselines import (
     spectral_residual,
 )
 from bench.stats import repeats, wilson
-from daemon.products import analyze_image, input_points
-from daemon.regimes import (
+from cyborg.daemon.sim.regimes import (
     CAMERA_EFFECTS,
     DESCRIPTIONS,
     JPEG_QUALITY,
@@ -77,9 +76,16 @@ from daemon.regimes import (
     seed_cliff,
     through_camera,
 )
-from daemon.scene import Scene
-from daemon.vision.interest import InterestPoint
-from daemon.vision.params import PAPER, VisionParams, add_settings_argument, compared, with_settings
+from cyborg.daemon.sim.scene import Scene
+from cyborg.daemon.vision.interest import InterestPoint
+from cyborg.daemon.vision.job import analyze_image, input_points
+from cyborg.daemon.vision.params import (
+    PAPER,
+    VisionParams,
+    add_settings_argument,
+    compared,
+    with_settings,
+)
 
 Method = Callable[[Scene, np.random.Generator], list[InterestPoint]]
 

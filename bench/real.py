@@ -64,11 +64,11 @@ from bench.baselines import (
     spectral_residual,
 )
 from bench.stats import repeats, wilson
-from daemon.imageio import ImageError, as_bgr8, read_image
-from daemon.products import analyze_image, input_points
-from daemon.regimes import jpeg_quality, jpeg_round_trip
-from daemon.vision.interest import InterestPoint
-from daemon.vision.params import VisionParams, add_settings_argument, compared
+from cyborg.daemon.sim.regimes import jpeg_quality, jpeg_round_trip
+from cyborg.daemon.vision.imageio import ImageError, as_bgr8, read_image
+from cyborg.daemon.vision.interest import InterestPoint
+from cyborg.daemon.vision.job import analyze_image, input_points
+from cyborg.daemon.vision.params import VisionParams, add_settings_argument, compared
 
 HIT_SHARE = 0.015
 """Hit radius, as a share of the image diagonal."""

@@ -33,11 +33,11 @@ from mcap.reader import make_reader
 from mcap.records import Channel, Chunk, Message
 from mcap.stream_reader import StreamReader, breakup_chunk
 
-from clients.launch import free_port, simulated_config, spawn
-from clients.rigclient import RigClient, run_station
-from protocol import recording as rec
-from protocol.messages import InterestResult, SurveyProgress, SurveyStart, TakeControl
-from protocol.transport import Transport
+from cyborg.clients.launch import free_port, simulated_config, spawn
+from cyborg.clients.rigclient import RigClient, run_station
+from cyborg.protocol import recording as rec
+from cyborg.protocol.messages import InterestResult, SurveyProgress, SurveyStart, TakeControl
+from cyborg.protocol.transport import Transport
 
 RIG = "recbench"
 

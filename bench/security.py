@@ -40,12 +40,19 @@ import msgpack
 import zenoh
 
 from bench.stats import latency
-from clients.launch import Daemon, free_port, make_certificates, operator, simulated_config, spawn
-from clients.rigclient import RigClient, RigError, RigUnavailableError
-from protocol.envelope import decode, encode
-from protocol.keys import COMMANDS
-from protocol.messages import REQUESTS, Ack, PtuState, TakeControl
-from protocol.transport import Transport
+from cyborg.clients.launch import (
+    Daemon,
+    free_port,
+    make_certificates,
+    operator,
+    simulated_config,
+    spawn,
+)
+from cyborg.clients.rigclient import RigClient, RigError, RigUnavailableError
+from cyborg.protocol.envelope import decode, encode
+from cyborg.protocol.keys import COMMANDS
+from cyborg.protocol.messages import REQUESTS, Ack, PtuState, TakeControl
+from cyborg.protocol.transport import Transport
 
 RIG = "secbench"
 USERS = '[[user]]\nname = "alice"\nrole = "operator"\n[[user]]\nname = "bob"\nrole = "viewer"\n'

@@ -28,9 +28,9 @@ import tracemalloc
 import cv2
 import numpy as np
 
-from daemon.products import analyze_image
-from daemon.scene import outcrop_scene
-from daemon.vision.params import PROFILES, VisionParams
+from cyborg.daemon.sim.scene import outcrop_scene
+from cyborg.daemon.vision.job import analyze_image
+from cyborg.daemon.vision.params import PROFILES, VisionParams
 
 SIZES: dict[str, tuple[int, int]] = {
     "seed mosaic 192x108": (108, 192),

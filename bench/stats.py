@@ -6,7 +6,7 @@ import math
 import statistics
 from collections.abc import Sequence
 
-from daemon.vision.interest import InterestPoint
+from cyborg.daemon.vision.interest import InterestPoint
 
 
 def latency(samples: list[float]) -> dict[str, float]:

@@ -23,10 +23,10 @@ import sys
 import tempfile
 from pathlib import Path
 
-from clients.launch import free_port, launch, simulated_config
-from clients.rigclient import RigClient, run_station
-from protocol.messages import InterestResult, SurveyProgress, SurveyStart, TakeControl
-from protocol.transport import Transport
+from cyborg.clients.launch import free_port, launch, simulated_config
+from cyborg.clients.rigclient import RigClient, run_station
+from cyborg.protocol.messages import InterestResult, SurveyProgress, SurveyStart, TakeControl
+from cyborg.protocol.transport import Transport
 
 
 async def _condition(

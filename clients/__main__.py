@@ -7,8 +7,8 @@ import os
 import sys
 from pathlib import Path
 
-from protocol.keys import check_client
-from protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
+from cyborg.protocol.keys import check_client
+from cyborg.protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 from . import cli
 from .demo import run_demo

@@ -22,7 +22,7 @@ from typing import Any
 
 import zenoh
 
-from protocol.messages import (
+from cyborg.protocol.messages import (
     REQUESTS,
     ArchiveGet,
     ArchiveList,
@@ -39,7 +39,7 @@ from protocol.messages import (
     TakeControl,
     check_setting,
 )
-from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
+from cyborg.protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 from .export import point_rows, to_csv, to_geojson
 from .link import add_link_arguments, transport

@@ -14,14 +14,14 @@ import sys
 import time
 from pathlib import Path
 
-from protocol.messages import (
+from cyborg.protocol.messages import (
     ChooseTarget,
     InterestResult,
     SurveyProgress,
     SurveyStart,
     TakeControl,
 )
-from protocol.transport import Transport
+from cyborg.protocol.transport import Transport
 
 from .launch import free_port, launch, simulated_config
 from .rigclient import RigClient, RigError, run_station

@@ -23,7 +23,7 @@ from typing import Any
 
 import zenoh
 
-from protocol.transport import Transport
+from cyborg.protocol.transport import Transport
 
 __all__ = [
     "CERTS",
@@ -143,7 +143,7 @@ async def spawn(
         proc = await asyncio.create_subprocess_exec(
             sys.executable,
             "-m",
-            "daemon",
+            "cyborg.daemon",
             command,
             *args,
             stdin=asyncio.subprocess.DEVNULL,
@@ -192,7 +192,7 @@ def router() -> Iterator[str]:
 
 _WATCHER = """
 import sys, time, zenoh
-from protocol.transport import Transport
+from cyborg.protocol.transport import Transport
 session = zenoh.open(zenoh.Config.from_json5(Transport("client", connect=(sys.argv[1],)).json5()))
 subscriber = session.declare_subscriber(sys.argv[2], lambda sample: None)
 print("watching", flush=True)
@@ -244,7 +244,7 @@ async def operator(
             *limit,
             sys.executable,
             "-m",
-            "clients",
+            "cyborg.clients",
             "operator",
             "--port",
             "0",

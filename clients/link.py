@@ -19,7 +19,7 @@ import re
 import socket
 from pathlib import Path
 
-from protocol.transport import Transport
+from cyborg.protocol.transport import Transport
 
 __all__ = [
     "DEFAULT_ENDPOINT",

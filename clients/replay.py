@@ -28,12 +28,12 @@ from mcap.records import Channel, Metadata, Schema
 from mcap.records import Message as McapMessage
 from mcap.stream_reader import StreamReader
 
-from protocol import recording as rec
-from protocol.envelope import encode
-from protocol.errors import ProtocolError
-from protocol.keys import Keys
-from protocol.messages import Chip, Event, FrameHeader, Message
-from protocol.transport import Transport
+from cyborg.protocol import recording as rec
+from cyborg.protocol.envelope import encode
+from cyborg.protocol.errors import ProtocolError
+from cyborg.protocol.keys import Keys
+from cyborg.protocol.messages import Chip, Event, FrameHeader, Message
+from cyborg.protocol.transport import Transport
 
 from .link import transport
 

@@ -19,10 +19,10 @@ from typing import TypeVar
 
 import zenoh
 
-from protocol.envelope import MAX_MESSAGE, decode, encode
-from protocol.errors import ProtocolError
-from protocol.keys import Keys, check_client
-from protocol.messages import (
+from cyborg.protocol.envelope import MAX_MESSAGE, decode, encode
+from cyborg.protocol.errors import ProtocolError
+from cyborg.protocol.keys import Keys, check_client
+from cyborg.protocol.messages import (
     Ack,
     FrameHeader,
     InterestResult,
@@ -37,7 +37,7 @@ from protocol.messages import (
     TakeControl,
     message_from,
 )
-from protocol.transport import Transport
+from cyborg.protocol.transport import Transport
 
 R = TypeVar("R", bound=Message)
 _LOGGER = logging.getLogger(__name__)

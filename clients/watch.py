@@ -15,7 +15,7 @@ from collections import deque
 from collections.abc import AsyncIterator, Awaitable, Callable
 from dataclasses import dataclass, field
 
-from protocol.messages import (
+from cyborg.protocol.messages import (
     Ack,
     Chip,
     Event,

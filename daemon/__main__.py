@@ -14,8 +14,8 @@ from pathlib import Path
 import cv2
 import zenoh
 
-from protocol.transport import MODES
-from protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
+from cyborg.protocol.transport import MODES
+from cyborg.protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 from .app import run
 from .camera import CameraError
@@ -248,7 +248,7 @@ def _main(argv: list[str] | None) -> int:
     if args.command == "ptu-emulator":
         return _run_emulator(args, parser)
     # The demo's scene generator is loaded only for the demo, never by the service.
-    return importlib.import_module(".demo", __package__).run_demo(args.out, args.seed)
+    return importlib.import_module(".tools.reproduce", __package__).reproduce(args.out, args.seed)
 
 
 if __name__ == "__main__":

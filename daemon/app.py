@@ -25,10 +25,10 @@ from typing import TextIO
 
 import cv2
 
-from protocol.envelope import MAX_MESSAGE
-from protocol.messages import Event, FrameHeader, Message, PtuState
-from protocol.redact import redact_url
-from protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
+from cyborg.protocol.envelope import MAX_MESSAGE
+from cyborg.protocol.messages import Event, FrameHeader, Message, PtuState
+from cyborg.protocol.redact import redact_url
+from cyborg.protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 from .archive import Archive
 from .bus import Bus
@@ -40,8 +40,8 @@ from .ptu import LinkState, PtuError, open_ptu
 from .record import Recorder, recover_logs
 from .rig import Rig
 from .sdnotify import Notifier
-from .site import Gpsd, Orientation, where
-from .survey import Survey, SurveyTelemetry
+from .survey.machine import Survey, SurveyTelemetry
+from .survey.site import Gpsd, Orientation, where
 from .worker import VisionWorker
 
 __all__ = ["run"]

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from .imageio import fsync_dir, write_atomic, write_png
+from .vision.imageio import fsync_dir, write_atomic, write_png
 
 __all__ = ["Archive", "ArchiveError", "Station"]
 

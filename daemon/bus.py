@@ -34,11 +34,11 @@ from concurrent.futures import ThreadPoolExecutor
 
 import zenoh
 
-from protocol.envelope import MAX_MESSAGE, encode
-from protocol.errors import VersionError
-from protocol.keys import Keys
-from protocol.messages import Message, clip
-from protocol.transport import Transport
+from cyborg.protocol.envelope import MAX_MESSAGE, encode
+from cyborg.protocol.errors import VersionError
+from cyborg.protocol.keys import Keys
+from cyborg.protocol.messages import Message, clip
+from cyborg.protocol.transport import Transport
 
 __all__ = ["OUTBOX_BOUND", "Bus", "CommandHandler", "Outbox", "open_session"]
 

@@ -12,10 +12,10 @@ import logging
 from collections.abc import Awaitable, Callable
 from typing import Any
 
-from protocol.envelope import decode
-from protocol.errors import ProtocolError, VersionError
-from protocol.keys import check_client
-from protocol.messages import (
+from cyborg.protocol.envelope import decode
+from cyborg.protocol.errors import ProtocolError, VersionError
+from cyborg.protocol.keys import check_client
+from cyborg.protocol.messages import (
     REQUESTS,
     Ack,
     ArchiveData,
@@ -39,14 +39,14 @@ from protocol.messages import (
     TakeControl,
     clip,
 )
-from protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
+from cyborg.protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 from .archive import Archive, ArchiveError
 from .liveview import LiveViews
+from .pointing.geometry import pixel_to_angles
 from .ptu import PtuConnectionError, PtuError, PtuLimitError, PtuTimeoutError
-from .ptu.geometry import pixel_to_angles
 from .rig import Rig
-from .survey import Survey, SurveyBusyError
+from .survey.machine import Survey, SurveyBusyError
 from .worker import VisionWorker
 
 __all__ = ["MOTION", "Commands"]

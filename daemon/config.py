@@ -11,11 +11,11 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from protocol.access import access_control, load_users
-from protocol.keys import Keys
-from protocol.transport import Transport
+from cyborg.protocol.access import access_control, load_users
+from cyborg.protocol.keys import Keys
+from cyborg.protocol.transport import Transport
 
-from .site import SiteConfig
+from .survey.site import SiteConfig
 from .vision.params import PROFILES, with_settings
 
 __all__ = [

@@ -15,10 +15,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from protocol.keys import Keys
-from protocol.messages import FrameStream, StreamRequest
+from cyborg.protocol.keys import Keys
+from cyborg.protocol.messages import FrameStream, StreamRequest
 
-from .imageio import encode_image
+from .vision.imageio import encode_image
 
 __all__ = ["IDLE_S", "LiveViews", "View"]
 

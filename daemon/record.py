@@ -33,8 +33,8 @@ from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import MCAP0_MAGIC as MAGIC
 from mcap.writer import CompressionType, Writer
 
-from protocol import recording as rec
-from protocol.messages import (
+from cyborg.protocol import recording as rec
+from cyborg.protocol.messages import (
     Chip,
     Event,
     FrameHeader,
@@ -45,7 +45,7 @@ from protocol.messages import (
 )
 
 from .archive import FINAL_STATES
-from .imageio import fsync_dir
+from .vision.imageio import fsync_dir
 
 __all__ = ["DAMAGED", "FILENAME", "Recorder", "SessionLog", "recover", "recover_logs"]
 

@@ -33,9 +33,9 @@ from typing import Any, TextIO
 
 import zenoh
 
-from protocol.access import access_control, load_users
-from protocol.keys import Keys
-from protocol.transport import Transport
+from cyborg.protocol.access import access_control, load_users
+from cyborg.protocol.keys import Keys
+from cyborg.protocol.transport import Transport
 
 from .zenohlog import route_zenoh_logs
 

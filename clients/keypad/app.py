@@ -14,7 +14,7 @@ import os
 import sys
 from collections.abc import Awaitable, Callable
 
-from protocol.messages import (
+from cyborg.protocol.messages import (
     Ack,
     ChooseTarget,
     PtuGoto,

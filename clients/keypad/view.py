@@ -7,7 +7,7 @@ import textwrap
 import time
 from dataclasses import dataclass
 
-from clients.watch import RigView
+from cyborg.clients.watch import RigView
 
 __all__ = ["KEYS", "STEPS", "Line", "Prompt", "progress_fraction", "render"]
 

@@ -25,7 +25,7 @@ from typing import Any
 
 from aiohttp import WSMsgType, web
 
-from protocol.messages import (
+from cyborg.protocol.messages import (
     REQUESTS,
     Ack,
     ArchiveGet,

@@ -16,7 +16,7 @@ from urllib.parse import parse_qs, urlsplit
 import cv2
 import numpy as np
 
-from protocol.redact import redact_url
+from cyborg.protocol.redact import redact_url
 
 from .base import Camera, CameraError, CameraUnavailableError, Exposure, Frame
 from .visca import ViscaError, ViscaZoom

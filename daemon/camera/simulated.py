@@ -23,10 +23,10 @@ from urllib.parse import parse_qs, urlsplit
 import cv2
 import numpy as np
 
-from ..imageio import ImageError, as_bgr8, read_image
-from ..ptu.geometry import CameraModel, pixel_to_angles
-from ..scene import outcrop_scene
-from ..world import World
+from ..pointing.geometry import CameraModel, pixel_to_angles
+from ..sim.scene import outcrop_scene
+from ..sim.world import World
+from ..vision.imageio import ImageError, as_bgr8, read_image
 from .base import Camera, CameraError, Exposure, Frame, PoseSource
 
 __all__ = ["Panorama", "PoseSource", "SimulatedCamera", "WorldTarget", "outcrop_panorama"]

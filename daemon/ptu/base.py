@@ -12,7 +12,7 @@ import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
-from .geometry import degrees_to_positions, positions_to_degrees
+from ..pointing.geometry import degrees_to_positions, positions_to_degrees
 
 __all__ = ["AxisInfo", "LinkState", "PanTiltUnit", "PtuInfo", "PtuPosition"]
 

@@ -200,7 +200,7 @@ def find_classes(hist: np.ndarray, params: VisionParams) -> tuple[PlaneClass, ..
 
     Examples
     --------
-    >>> from daemon.vision.params import PAPER
+    >>> from cyborg.daemon.vision.params import PAPER
     >>> plane = np.repeat(np.array([[40] * 30 + [200] * 10], np.uint8), 20, axis=0)
     >>> [(c.center, c.lo, c.hi) for c in find_classes(cooccurrence_histogram(plane), PAPER)]
     [(40, 0, 120), (200, 121, 255)]
@@ -407,7 +407,7 @@ def segment_plane(
 
     Examples
     --------
-    >>> from daemon.vision.params import PAPER
+    >>> from cyborg.daemon.vision.params import PAPER
     >>> plane = np.full((20, 40), 40, np.uint8)
     >>> plane[:, 30:] = 200
     >>> plane[:, 10] = 120                        # a one-pixel line is no region

@@ -83,7 +83,7 @@ def plain_lines(points: list[InterestPoint], hsi: HSIPlanes) -> list[str]:
 
     Examples
     --------
-    >>> from daemon.vision.hsi import rgb_to_hsi
+    >>> from cyborg.daemon.vision.hsi import rgb_to_hsi
     >>> img = np.full((100, 100, 3), (60, 100, 140), np.uint8)    # brown rock (BGR)
     >>> img[40:50, 40:50] = (40, 150, 110)                         # a green plant
     >>> img[80:90, 10:20] = (30, 50, 70)                           # a wet stain

@@ -142,8 +142,8 @@ def interest_map(
 
     Examples
     --------
-    >>> from daemon.vision.cooccurrence import segment_plane
-    >>> from daemon.vision.params import PAPER
+    >>> from cyborg.daemon.vision.cooccurrence import segment_plane
+    >>> from cyborg.daemon.vision.params import PAPER
     >>> plane = np.full((60, 60), 40, np.uint8)
     >>> plane[25:35, 25:35] = 200
     >>> seg = segment_plane(plane, PAPER.replace(blur_mode="sigma"))
@@ -350,7 +350,7 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     --------
     >>> grid = np.zeros((40, 40), np.float32)
     >>> grid[10, 10], grid[30, 28], grid[12, 12] = 5.0, 3.0, 4.0
-    >>> from daemon.vision.params import PAPER
+    >>> from cyborg.daemon.vision.params import PAPER
     >>> pts = find_points(InterestMap(grid, 1, (40, 40)), PAPER.replace(blur=5.0))
     >>> [(p.rank, p.x, p.y, p.score, p.radius) for p in pts]
     [(1, 10.0, 10.0, 5.0, 5.0), (2, 28.0, 30.0, 3.0, 5.0)]

@@ -54,8 +54,8 @@ def layer_share(seg: Segmentation) -> np.ndarray:
 
     Examples
     --------
-    >>> from daemon.vision.cooccurrence import segment_plane
-    >>> from daemon.vision.params import PAPER
+    >>> from cyborg.daemon.vision.cooccurrence import segment_plane
+    >>> from cyborg.daemon.vision.params import PAPER
     >>> plane = np.full((120, 160), 100, np.uint8)
     >>> plane[50:60, :] = 200                    # a pale bed across the view
     >>> plane[20:30, 70:80] = 30                 # a dark spot

@@ -138,7 +138,7 @@ def line_rarity(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
 
     Examples
     --------
-    >>> from daemon.vision.params import DEFAULT
+    >>> from cyborg.daemon.vision.params import DEFAULT
     >>> rng = np.random.default_rng(0)
     >>> img = rng.normal(90, 3, (80, 80, 3)).clip(0, 255).astype(np.uint8)
     >>> img[:, 40:] += 60                                # a bed contact

@@ -57,7 +57,7 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
 
     Examples
     --------
-    >>> from daemon.vision.params import PAPER
+    >>> from cyborg.daemon.vision.params import PAPER
     >>> img = np.full((90, 120, 3), (60, 110, 160), np.uint8)    # buff rock
     >>> img[40:50, 80:90] = (40, 160, 40)                          # a green plant
     >>> res = analyze(img, PAPER)

@@ -145,7 +145,7 @@ def shadow_likelihood(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
 
     Examples
     --------
-    >>> from daemon.vision.params import DEFAULT
+    >>> from cyborg.daemon.vision.params import DEFAULT
     >>> img = np.full((60, 80, 3), (60, 80, 150), np.uint8)        # red sandstone
     >>> img[28:34, 10:70] = (60 * 0.5, 80 * 0.41, 150 * 0.36)      # in the sky's shade
     >>> img[10:16, 30:36] = (40, 110, 40)                          # a darker green plant

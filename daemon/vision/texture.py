@@ -111,7 +111,7 @@ def texture_rarity(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
 
     Examples
     --------
-    >>> from daemon.vision.params import DEFAULT
+    >>> from cyborg.daemon.vision.params import DEFAULT
     >>> img = np.full((60, 60, 3), (60, 100, 140), np.uint8)
     >>> img[::2] += 8                                   # a fine, common grain
     >>> img[28:32, 10:50] = (60, 100, 140)              # a smooth streak: rare texture

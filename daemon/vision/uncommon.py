@@ -32,8 +32,8 @@ def uncommon_values(seg: Segmentation, params: VisionParams) -> np.ndarray:
 
     Examples
     --------
-    >>> from daemon.vision.cooccurrence import PlaneClass
-    >>> from daemon.vision.params import PAPER
+    >>> from cyborg.daemon.vision.cooccurrence import PlaneClass
+    >>> from cyborg.daemon.vision.params import PAPER
     >>> cls = tuple(PlaneClass(c, 3, 1.0, a) for c, a in [(10, 900), (90, 90), (200, 9)])
     >>> seg = Segmentation(np.zeros((1, 1), np.uint8), cls, np.zeros((256, 256), np.float32))
     >>> uncommon_values(seg, PAPER)[:4].tolist()
@@ -65,7 +65,7 @@ def value_rarity(seg: Segmentation, params: VisionParams) -> np.ndarray:
 
     Examples
     --------
-    >>> from daemon.vision.params import PAPER
+    >>> from cyborg.daemon.vision.params import PAPER
     >>> prof = np.zeros(256)
     >>> prof[[10, 11, 12]] = [1000.0, 10.0, 1.0]
     >>> seg = Segmentation(np.zeros((1, 1), np.uint8), (), np.zeros((256, 256)), profile=prof)
@@ -95,8 +95,8 @@ def uncommon_map(seg: Segmentation, params: VisionParams) -> np.ndarray:
 
     Examples
     --------
-    >>> from daemon.vision.cooccurrence import segment_plane
-    >>> from daemon.vision.params import PAPER
+    >>> from cyborg.daemon.vision.cooccurrence import segment_plane
+    >>> from cyborg.daemon.vision.params import PAPER
     >>> plane = np.full((20, 40), 40, np.uint8)
     >>> plane[:, 30:] = 200
     >>> umap = uncommon_map(segment_plane(plane, PAPER), PAPER)

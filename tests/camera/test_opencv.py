@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from daemon.camera import CameraUnavailableError, OpenCvCamera, open_camera
+from cyborg.daemon.camera import CameraUnavailableError, OpenCvCamera, open_camera
 
 
 def _write_clip(path: Path, n: int = 6) -> None:

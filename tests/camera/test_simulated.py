@@ -6,9 +6,9 @@ import cv2
 import numpy as np
 import pytest
 
-from daemon.camera import CameraError, Panorama, SimulatedCamera, open_camera
-from daemon.ptu import open_ptu
-from daemon.ptu.geometry import CameraModel, angles_to_pixel
+from cyborg.daemon.camera import CameraError, Panorama, SimulatedCamera, open_camera
+from cyborg.daemon.pointing.geometry import CameraModel, angles_to_pixel
+from cyborg.daemon.ptu import open_ptu
 
 
 def _dot_panorama(pan: float, tilt: float) -> Panorama:

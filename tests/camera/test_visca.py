@@ -6,7 +6,7 @@ import os
 
 import pytest
 
-from daemon.camera.visca import ViscaEmulator, ViscaError, ViscaZoom
+from cyborg.daemon.camera.visca import ViscaEmulator, ViscaError, ViscaZoom
 
 
 @pytest.fixture

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from daemon.camera import open_camera
-from daemon.world import World
+from cyborg.daemon.camera import open_camera
+from cyborg.daemon.sim.world import World
 
 FAR, NEAR = 30.0 / 720, 1.0 / 720
 """Pixel footprints (degrees) of a 720 px wide, 30 deg view at 300 m and at 10 m."""

@@ -17,12 +17,12 @@ from collections.abc import Iterator
 import pytest
 import zenoh
 
-from clients.launch import free_port, watcher
-from daemon.bus import OUTBOX_BOUND, Bus
-from protocol.envelope import decode, encode
-from protocol.keys import Keys
-from protocol.messages import Ack, Event, FrameHeader, PtuState
-from protocol.transport import Transport
+from cyborg.clients.launch import free_port, watcher
+from cyborg.daemon.bus import OUTBOX_BOUND, Bus
+from cyborg.protocol.envelope import decode, encode
+from cyborg.protocol.keys import Keys
+from cyborg.protocol.messages import Ack, Event, FrameHeader, PtuState
+from cyborg.protocol.transport import Transport
 
 pytestmark = pytest.mark.timeout(120)
 

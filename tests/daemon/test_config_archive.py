@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from daemon.archive import Archive, ArchiveError
-from daemon.config import ConfigError, load
-from daemon.rig import Control
-from daemon.router import load_router
-from daemon.sdnotify import Notifier
+from cyborg.daemon.archive import Archive, ArchiveError
+from cyborg.daemon.config import ConfigError, load
+from cyborg.daemon.rig import Control
+from cyborg.daemon.router import load_router
+from cyborg.daemon.sdnotify import Notifier
 
 
 def _toml(tmp_path: Path, text: str) -> Path:
@@ -214,7 +214,7 @@ def test_archive_files_are_readable_by_the_group(tmp_path: Path) -> None:
     """Under systemd (UMask=0027) results are 0640: the geologist in group cyborg reads them."""
     code = (
         "import os, sys; os.umask(0o027); from pathlib import Path;"
-        "from daemon.imageio import write_atomic;"
+        "from cyborg.daemon.vision.imageio import write_atomic;"
         "write_atomic(Path(sys.argv[1]), b'x')"
     )
     target = tmp_path / "a" / "result.json"

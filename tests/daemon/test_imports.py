@@ -12,24 +12,29 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from daemon.survey import ANALYSE
-from daemon.worker import VisionWorker, WorkerError
+from cyborg.daemon.survey.machine import ANALYSE
+from cyborg.daemon.worker import VisionWorker, WorkerError
 
-SIMULATION = ("daemon.camera.simulated", "daemon.scene", "daemon.world", "daemon.demo")
+SIMULATION = (
+    "cyborg.daemon.camera.simulated",
+    "cyborg.daemon.sim.scene",
+    "cyborg.daemon.sim.world",
+    "cyborg.daemon.tools.reproduce",
+)
 SCIENCE = (
-    "daemon.products",
-    "daemon.analyze",
-    "daemon.vision.pipeline",
-    "daemon.vision.cooccurrence",
-    "daemon.vision.texture",
-    "daemon.vision.shadow",
-    "daemon.vision.interest",
+    "cyborg.daemon.vision.job",
+    "cyborg.daemon.tools.analyze",
+    "cyborg.daemon.vision.pipeline",
+    "cyborg.daemon.vision.cooccurrence",
+    "cyborg.daemon.vision.texture",
+    "cyborg.daemon.vision.shadow",
+    "cyborg.daemon.vision.interest",
 )
 
 
 def test_importing_the_daemon_does_not_load_the_simulator_or_the_science() -> None:
     probe = (
-        "import sys, daemon.app, daemon.__main__\n"
+        "import sys, cyborg.daemon.app, cyborg.daemon.__main__\n"
         f"print(','.join(m for m in {SIMULATION + SCIENCE!r} if m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
@@ -38,9 +43,10 @@ def test_importing_the_daemon_does_not_load_the_simulator_or_the_science() -> No
 
 def test_a_simulated_camera_brings_the_simulator_in() -> None:
     probe = (
-        "import sys\nfrom daemon.camera import open_camera\n"
+        "import sys\nfrom cyborg.daemon.camera import open_camera\n"
         "open_camera('sim://world?seed=1')\n"
-        "print('daemon.world' in sys.modules and 'daemon.camera.simulated' in sys.modules)"
+        "print('cyborg.daemon.sim.world' in sys.modules "
+        "and 'cyborg.daemon.camera.simulated' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "True"
@@ -55,4 +61,4 @@ async def test_the_worker_runs_the_science_core_by_name() -> None:
         doc = await worker.call(ANALYSE, folder, img, "paper", "t.png")
         assert doc["points"] and (Path(folder) / "result.json").is_file()
         with pytest.raises(WorkerError, match="no job"):
-            await worker.call("daemon.products:nothing_here")
+            await worker.call("cyborg.daemon.vision.job:nothing_here")

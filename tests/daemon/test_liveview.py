@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from daemon.liveview import LiveViews
-from protocol.keys import Keys
-from protocol.messages import StreamRequest
+from cyborg.daemon.liveview import LiveViews
+from cyborg.protocol.keys import Keys
+from cyborg.protocol.messages import StreamRequest
 
 CAP = 0.2
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from clients.replay import read_log
-from daemon.record import SessionLog
+from cyborg.clients.replay import read_log
+from cyborg.daemon.record import SessionLog
 
 
 def test_a_full_disk_stops_the_log_and_nothing_else(small_disk: Path) -> None:

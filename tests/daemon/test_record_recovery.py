@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from clients.replay import read_log
-from daemon.record import DAMAGED, SessionLog, recover, recover_logs
+from cyborg.clients.replay import read_log
+from cyborg.daemon.record import DAMAGED, SessionLog, recover, recover_logs
 
 META = {"rig": "t", "camera": "v4l2://0"}
 

@@ -8,8 +8,8 @@ import logging
 
 import pytest
 
-from daemon.camera import CameraUnavailableError, OpenCvCamera
-from protocol.redact import redact_url
+from cyborg.daemon.camera import CameraUnavailableError, OpenCvCamera
+from cyborg.protocol.redact import redact_url
 
 SECRET = "s3cr3t-pw"
 
@@ -39,7 +39,7 @@ async def test_an_unreachable_rtsp_camera_says_so_without_its_password(
 ) -> None:
     """Port 9 on loopback refuses at once: the open fails, the reconnects are logged, the
     grab fails; every text names the camera, none carries the password."""
-    caplog.set_level(logging.DEBUG, logger="daemon.camera")
+    caplog.set_level(logging.DEBUG, logger="cyborg.daemon.camera")
     cam = OpenCvCamera(f"rtsp://admin:{SECRET}@127.0.0.1:9/stream", retries=1, backoff=0.01)
     with pytest.raises(CameraUnavailableError) as opened:
         await cam.open()

@@ -10,10 +10,10 @@ from pathlib import Path
 
 import pytest
 
-from clients.launch import free_port, launch
-from daemon.config import ConfigError, load
-from daemon.router import load_router
-from protocol.transport import Transport
+from cyborg.clients.launch import free_port, launch
+from cyborg.daemon.config import ConfigError, load
+from cyborg.daemon.router import load_router
+from cyborg.protocol.transport import Transport
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -84,8 +84,8 @@ def test_the_router_asks_a_name_too(tmp_path: Path) -> None:
 def test_the_daemon_and_clients_refuse_to_dial_clear_text_beyond_loopback() -> None:
     """As processes: ``cyborgd run`` and ``cyborg status`` stop at once with the reason."""
     runs = [
-        ["daemon", "run", "--ptu", "emu://", "--mode", "client", "--connect", ROUTER],
-        ["clients", "status", "--connect", ROUTER],
+        ["cyborg.daemon", "run", "--ptu", "emu://", "--mode", "client", "--connect", ROUTER],
+        ["cyborg.clients", "status", "--connect", ROUTER],
     ]
     for argv in runs:
         done = subprocess.run(

@@ -13,7 +13,7 @@ import pytest
 
 PARENT = """
 import asyncio, time
-from daemon.worker import VisionWorker
+from cyborg.daemon.worker import VisionWorker
 
 async def main():
     worker = VisionWorker()

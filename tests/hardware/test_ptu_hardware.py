@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 
-from daemon.ptu import LinkState, PtuLimitError, SerialPtu
+from cyborg.daemon.ptu import LinkState, PtuLimitError, SerialPtu
 
 pytestmark = pytest.mark.timeout(120)
 

@@ -8,10 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from clients import launch
-from clients.launch import Daemon, simulated_config, spawn
-from clients.rigclient import RigClient
-from protocol.transport import Transport
+from cyborg.clients import launch
+from cyborg.clients.launch import Daemon, simulated_config, spawn
+from cyborg.clients.rigclient import RigClient
+from cyborg.protocol.transport import Transport
 
 
 @pytest.fixture

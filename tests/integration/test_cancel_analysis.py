@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from clients.rigclient import RigClient, run_station, until_stage
-from protocol.messages import (
+from cyborg.clients.rigclient import RigClient, run_station, until_stage
+from cyborg.protocol.messages import (
     Event,
     InterestResult,
     PtuHalt,

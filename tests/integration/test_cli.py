@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from clients.rigclient import RigClient
-from protocol.messages import TakeControl
+from cyborg.clients.rigclient import RigClient
+from cyborg.protocol.messages import TakeControl
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -21,7 +21,7 @@ async def cyborg(router: str, *args: str, rig: str = "itest") -> tuple[int, dict
     proc = await asyncio.create_subprocess_exec(
         sys.executable,
         "-m",
-        "clients",
+        "cyborg.clients",
         *args,
         "--json",
         "--rig",
@@ -112,7 +112,7 @@ async def test_an_absent_rig_is_reported_as_unreachable(router: str) -> None:
 async def test_a_malformed_setting_is_a_usage_error_before_any_connection() -> None:
     proc = await asyncio.create_subprocess_exec(
         sys.executable,
-        *("-m", "clients", "survey", "--set", "blur", "--connect", "tcp/127.0.0.1:1"),
+        *("-m", "cyborg.clients", "survey", "--set", "blur", "--connect", "tcp/127.0.0.1:1"),
         stdout=asyncio.subprocess.PIPE,
         stderr=asyncio.subprocess.PIPE,
     )

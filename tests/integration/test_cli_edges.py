@@ -14,9 +14,9 @@ import cv2
 import numpy as np
 import pytest
 
-from clients.launch import Daemon
-from clients.rigclient import RigClient, run_station
-from protocol.messages import InterestResult, SurveyProgress, SurveyStart, SurveyStatus
+from cyborg.clients.launch import Daemon
+from cyborg.clients.rigclient import RigClient, run_station
+from cyborg.protocol.messages import InterestResult, SurveyProgress, SurveyStart, SurveyStatus
 
 pytestmark = pytest.mark.timeout(240)
 
@@ -26,7 +26,7 @@ LINK = ("--rig", "itest", "--name", "script")
 async def _surveying(router: str) -> asyncio.subprocess.Process:
     """``cyborg survey --json`` of a 3×4 mosaic, returned once its first tile is reported."""
     proc = await asyncio.create_subprocess_exec(
-        *(sys.executable, "-m", "clients", "survey", "--rows", "3", "--cols", "4", "--json"),
+        *(sys.executable, "-m", "cyborg.clients", "survey", "--rows", "3", "--cols", "4", "--json"),
         *(*LINK, "--connect", router, "--timeout", "120"),
         stdout=asyncio.subprocess.PIPE,
         stderr=asyncio.subprocess.PIPE,
@@ -103,7 +103,7 @@ async def test_a_closed_pipe_ends_any_command_quietly(
         ("export", session, "-o", "-"),
         ("fetch", session, f"{station}/analysis/overlay.png", "-o", "-"),
     ):
-        code, err = await _to_closed_pipe("-m", "clients", *command, *link)
+        code, err = await _to_closed_pipe("-m", "cyborg.clients", *command, *link)
         assert (code, err) == (141, ""), command
 
 
@@ -112,6 +112,6 @@ async def test_a_closed_pipe_ends_cyborgd_analyze_quietly(
 ) -> None:
     image = tmp_path / "noise.png"
     cv2.imwrite(str(image), rng.integers(0, 256, (96, 128, 3), dtype=np.uint8))
-    argv = ("-m", "daemon", "analyze", "--json", str(image), str(image))
+    argv = ("-m", "cyborg.daemon", "analyze", "--json", str(image), str(image))
     code, err = await _to_closed_pipe(*argv, "--out", str(tmp_path / "out"))
     assert (code, err) == (141, "")

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from bench.console import operator_request, slow_header
-from clients.launch import operator as launch_operator
+from cyborg.clients.launch import operator as launch_operator
 
 pytestmark = pytest.mark.timeout(240)
 

@@ -13,11 +13,11 @@ import msgpack
 import numpy as np
 import pytest
 
-from clients.rigclient import RigClient, RigError, run_station, until_stage
-from clients.watch import RigWatch
-from daemon.camera.simulated import outcrop_panorama
-from protocol.envelope import decode, encode
-from protocol.messages import (
+from cyborg.clients.rigclient import RigClient, RigError, run_station, until_stage
+from cyborg.clients.watch import RigWatch
+from cyborg.daemon.camera.simulated import outcrop_panorama
+from cyborg.protocol.envelope import decode, encode
+from cyborg.protocol.messages import (
     Ack,
     ArchiveData,
     ArchiveGet,
@@ -39,8 +39,8 @@ from protocol.messages import (
     SurveyStatus,
     TakeControl,
 )
-from protocol.transport import Transport
-from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
+from cyborg.protocol.transport import Transport
+from cyborg.protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 pytestmark = pytest.mark.timeout(120)
 

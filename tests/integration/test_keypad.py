@@ -18,8 +18,8 @@ from collections.abc import AsyncIterator
 import pyte
 import pytest
 
-from clients.rigclient import RigClient
-from protocol.messages import TakeControl
+from cyborg.clients.rigclient import RigClient
+from cyborg.protocol.messages import TakeControl
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -103,7 +103,7 @@ async def keypad(router: str) -> AsyncIterator[Terminal]:
         [
             sys.executable,
             "-m",
-            "clients",
+            "cyborg.clients",
             "keypad",
             "--rig",
             "itest",

@@ -10,11 +10,11 @@ from pathlib import Path
 
 import pytest
 
-from clients.launch import free_port, simulated_config, spawn
-from clients.rigclient import RigClient
-from protocol.messages import Hello, SurveyStatus
-from protocol.transport import Transport
-from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
+from cyborg.clients.launch import free_port, simulated_config, spawn
+from cyborg.clients.rigclient import RigClient
+from cyborg.protocol.messages import Hello, SurveyStatus
+from cyborg.protocol.transport import Transport
+from cyborg.protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -42,7 +42,7 @@ async def test_sd_notify_ready_watchdog_stopping(router: str, tmp_path: Path) ->
 
 def _run(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-m", "daemon", "run", *args],
+        [sys.executable, "-m", "cyborg.daemon", "run", *args],
         capture_output=True,
         text=True,
         timeout=30,

@@ -10,8 +10,14 @@ from pathlib import Path
 
 import pytest
 
-from clients.rigclient import RigClient, run_station
-from protocol.messages import InterestResult, PtuState, SurveyProgress, SurveyStart, TakeControl
+from cyborg.clients.rigclient import RigClient, run_station
+from cyborg.protocol.messages import (
+    InterestResult,
+    PtuState,
+    SurveyProgress,
+    SurveyStart,
+    TakeControl,
+)
 
 pytestmark = pytest.mark.timeout(180)
 

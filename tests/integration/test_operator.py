@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 
 from bench.browser import MISSING, Browser, chromium
-from clients.launch import operator as launch_operator
-from clients.rigclient import RigClient
-from protocol.messages import PtuState, ReleaseControl, TakeControl
+from cyborg.clients.launch import operator as launch_operator
+from cyborg.clients.rigclient import RigClient
+from cyborg.protocol.messages import PtuState, ReleaseControl, TakeControl
 
 pytestmark = [pytest.mark.timeout(240), pytest.mark.skipif(bool(MISSING), reason=MISSING or "")]
 

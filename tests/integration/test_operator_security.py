@@ -17,11 +17,11 @@ import pytest
 from aiohttp import web
 
 from bench.browser import MISSING, Browser, chromium
-from clients.launch import operator as launch_operator
-from clients.operator.guard import Guard, allowed_hosts
-from clients.operator.server import Operator
-from clients.rigclient import RigClient
-from protocol.messages import PtuState
+from cyborg.clients.launch import operator as launch_operator
+from cyborg.clients.operator.guard import Guard, allowed_hosts
+from cyborg.clients.operator.server import Operator
+from cyborg.clients.rigclient import RigClient
+from cyborg.protocol.messages import PtuState
 
 pytestmark = pytest.mark.timeout(120)
 needs_chromium = pytest.mark.skipif(bool(MISSING), reason=MISSING or "")

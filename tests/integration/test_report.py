@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 
 from bench.browser import MISSING, chromium
-from clients.rigclient import RigClient, run_station
-from protocol.messages import (
+from cyborg.clients.rigclient import RigClient, run_station
+from cyborg.protocol.messages import (
     ChooseTarget,
     InterestResult,
     SurveyProgress,
@@ -38,7 +38,7 @@ async def test_the_report_reads_and_prints(
     page = Path(daemon.ready["archive"]) / session / "report.html"
     assert page.is_file()
     proc = await asyncio.create_subprocess_exec(
-        sys.executable, "-m", "clients", "report", session, "--out", str(tmp_path),
+        sys.executable, "-m", "cyborg.clients", "report", session, "--out", str(tmp_path),
         "--rig", "itest", "--connect", router, "--name", "reader",
         stdout=asyncio.subprocess.PIPE,
     )  # fmt: skip

@@ -18,12 +18,12 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from clients.launch import Daemon, free_port, make_certificates, simulated_config, spawn
-from clients.rigclient import RigClient, RigUnavailableError
-from protocol.envelope import encode
-from protocol.messages import Hello, PtuGoto, PtuState, SurveyStatus, TakeControl
-from protocol.transport import Transport
-from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
+from cyborg.clients.launch import Daemon, free_port, make_certificates, simulated_config, spawn
+from cyborg.clients.rigclient import RigClient, RigUnavailableError
+from cyborg.protocol.envelope import encode
+from cyborg.protocol.messages import Hello, PtuGoto, PtuState, SurveyStatus, TakeControl
+from cyborg.protocol.transport import Transport
+from cyborg.protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 pytestmark = pytest.mark.skipif(shutil.which("openssl") is None, reason="needs openssl")
 

@@ -15,13 +15,13 @@ from typing import Any
 
 import pytest
 
-from clients.replay import read_log, replay
-from clients.rigclient import RigClient, run_station
-from clients.watch import RigWatch
-from protocol import recording as rec
-from protocol.messages import Chip, InterestResult, SurveyProgress, SurveyStart, TakeControl
-from protocol.transport import Transport
-from protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
+from cyborg.clients.replay import read_log, replay
+from cyborg.clients.rigclient import RigClient, run_station
+from cyborg.clients.watch import RigWatch
+from cyborg.protocol import recording as rec
+from cyborg.protocol.messages import Chip, InterestResult, SurveyProgress, SurveyStart, TakeControl
+from cyborg.protocol.transport import Transport
+from cyborg.protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 pytestmark = pytest.mark.timeout(180)
 

@@ -16,10 +16,10 @@ import cv2
 import pytest
 from mcap.reader import make_reader
 
-from clients.replay import read_log
-from clients.rigclient import RigClient, run_station
-from daemon.camera import outcrop_panorama
-from protocol.messages import InterestResult, SurveyProgress, SurveyStart, TakeControl
+from cyborg.clients.replay import read_log
+from cyborg.clients.rigclient import RigClient, run_station
+from cyborg.daemon.camera import outcrop_panorama
+from cyborg.protocol.messages import InterestResult, SurveyProgress, SurveyStart, TakeControl
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -65,7 +65,7 @@ async def test_a_log_cut_mid_station_is_recovered_at_the_next_start(
     assert metadata["session"]["camera"] == f"sim://***@{pano}?hfov=30"
 
     replay = await asyncio.create_subprocess_exec(
-        *(sys.executable, "-m", "clients", "replay", str(log.parent), "--connect", router),
+        *(sys.executable, "-m", "cyborg.clients", "replay", str(log.parent), "--connect", router),
         *("--as-rig", "replayed", "--speed", "50"),
         stdout=asyncio.subprocess.PIPE,
         stderr=asyncio.subprocess.PIPE,

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from clients.rigclient import RigClient, run_station
-from protocol.messages import InterestResult, SurveyProgress, SurveyStart, TakeControl
+from cyborg.clients.rigclient import RigClient, run_station
+from cyborg.protocol.messages import InterestResult, SurveyProgress, SurveyStart, TakeControl
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -83,7 +83,7 @@ async def test_fix_heading_and_export(start_daemon, client: RigClient, gpsd: str
 
     async def export(fmt: str) -> str:
         proc = await asyncio.create_subprocess_exec(
-            sys.executable, "-m", "clients", "export", session, "--format", fmt, "-o", "-",
+            sys.executable, "-m", "cyborg.clients", "export", session, "--format", fmt, "-o", "-",
             "--rig", "itest", "--connect", router, "--name", "exporter",
             stdout=asyncio.subprocess.PIPE,
         )  # fmt: skip

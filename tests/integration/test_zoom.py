@@ -11,9 +11,15 @@ import cv2
 import numpy as np
 import pytest
 
-from clients.rigclient import RigClient, run_station
-from daemon.camera.visca import ViscaEmulator
-from protocol.messages import ChooseTarget, InterestResult, SurveyProgress, SurveyStart, TakeControl
+from cyborg.clients.rigclient import RigClient, run_station
+from cyborg.daemon.camera.visca import ViscaEmulator
+from cyborg.protocol.messages import (
+    ChooseTarget,
+    InterestResult,
+    SurveyProgress,
+    SurveyStart,
+    TakeControl,
+)
 
 pytestmark = pytest.mark.timeout(120)
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from daemon.ptu import PtyPtu
-from daemon.ptu.emulated import TcpPtu
-from daemon.ptu.emulator import Ptu46Emulator
+from cyborg.daemon.ptu import PtyPtu
+from cyborg.daemon.ptu.emulated import TcpPtu
+from cyborg.daemon.ptu.emulator import Ptu46Emulator
 
 
 @pytest.fixture(params=["pty", "tcp"])

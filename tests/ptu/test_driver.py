@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from daemon.ptu import (
+from cyborg.daemon.ptu import (
     BANNER,
     EmulatedPtu,
     LinkState,
@@ -24,9 +24,9 @@ from daemon.ptu import (
     SerialPtu,
     open_ptu,
 )
-from daemon.ptu.emulator import Ptu46Emulator
-from daemon.ptu.models import MODELS
-from daemon.ptu.ptyserver import Fault
+from cyborg.daemon.ptu.emulator import Ptu46Emulator
+from cyborg.daemon.ptu.models import MODELS
+from cyborg.daemon.ptu.ptyserver import Fault
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -299,7 +299,7 @@ async def test_emulator_command_runs_as_a_process(tmp_path: Path) -> None:
     proc = await asyncio.create_subprocess_exec(
         sys.executable,
         "-m",
-        "daemon",
+        "cyborg.daemon",
         "ptu-emulator",
         "--time-scale",
         "20",

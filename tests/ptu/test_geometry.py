@@ -6,8 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
-from daemon.camera import SimulatedCamera
-from daemon.ptu.geometry import (
+from cyborg.daemon.camera import SimulatedCamera
+from cyborg.daemon.pointing.geometry import (
     CameraModel,
     MosaicGeometry,
     angles_to_pixel,

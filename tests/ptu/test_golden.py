@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from daemon.ptu.emulator import Ptu46Emulator
-from daemon.ptu.wire import parse_reply, split_limit_events
+from cyborg.daemon.ptu.emulator import Ptu46Emulator
+from cyborg.daemon.ptu.wire import parse_reply, split_limit_events
 
 GOLDEN = sorted((Path(__file__).parent / "golden").glob("*.txt"))
 

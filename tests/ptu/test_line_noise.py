@@ -14,15 +14,15 @@ import logging
 
 import pytest
 
-from daemon.ptu import (
+from cyborg.daemon.ptu import (
     LinkState,
     PtuConnectionError,
     PtuProtocolError,
     PtuTimeoutError,
     PtyPtu,
 )
-from daemon.ptu.ptyserver import NOISE, Fault
-from daemon.ptu.wire import match_reply
+from cyborg.daemon.ptu.ptyserver import NOISE, Fault
+from cyborg.daemon.ptu.wire import match_reply
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -51,7 +51,7 @@ async def test_noise_glued_onto_a_query_reply_is_retried(
     noise = Fault("noise", "PP")
     assert b"\n" not in noise.data and noise.data == NOISE  # glued: no line end of its own
     ptu.server.faults.append(noise)
-    with caplog.at_level(logging.WARNING, "daemon.ptu.serial"):
+    with caplog.at_level(logging.WARNING, "cyborg.daemon.ptu.serial"):
         here = await ptu.position()
     assert noise.fired == 1 and ptu.retried == 1
     assert here.pan_pos == ptu.server.emulator.pan.position
@@ -97,7 +97,7 @@ async def test_an_impossible_position_is_asked_again(
 ) -> None:
     rewrite = Fault("rewrite", "PP")  # "* 99999": no D46 pan axis gets there
     ptu.server.faults.append(rewrite)
-    with caplog.at_level(logging.WARNING, "daemon.ptu.commanded"):
+    with caplog.at_level(logging.WARNING, "cyborg.daemon.ptu.commanded"):
         here = await ptu.position()
     assert rewrite.fired == 1
     assert here.pan_pos == ptu.server.emulator.pan.position

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from daemon.ptu.motion import Axis, move_time
+from cyborg.daemon.ptu.motion import Axis, move_time
 
 
 def _run(axis: Axis, step: float = 0.001, limit: float = 30.0) -> float:

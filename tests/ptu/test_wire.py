@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from daemon.ptu.wire import (
+from cyborg.daemon.ptu.wire import (
     LineFramer,
     format_command,
     parse_reply,

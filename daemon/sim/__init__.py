@@ -1,0 +1,2 @@
+"""The simulated world: generated cliffs and worlds for the simulated camera, and the
+benchmark regimes drawn from them."""

@@ -1,0 +1,111 @@
+"""Registering a station to the one it was aimed from: predicted from geometry, refined by
+image registration, the residual reported (how far the prediction was off).
+
+Prediction. Each pixel of the new mosaic is a world direction (its geometry). Zooming
+from the same tripod, the earlier mosaic saw that direction as is. Walking ``k`` times
+closer to a roughly planar outcrop, directions spread away from the target's by ``k``, so
+the earlier station saw ``target + (direction - target) / k``. Either way the earlier
+mosaic is resampled into the new one's frame.
+
+Refinement. OpenCV's ECC (enhanced correlation coefficient) finds the similarity
+(shift, scale, rotation) that best aligns the prediction with what the new station shot,
+on a reduced grey copy; the residual is that correction, in pixels and degrees, and the
+correlation reached says how much to trust it.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import cv2
+import numpy as np
+
+from ..pointing.geometry import MosaicGeometry
+
+__all__ = ["carry", "register"]
+
+_WORK = 256
+"""Longest side of the copies registered (coarse structure is what carries across)."""
+
+
+def carry(
+    old: np.ndarray,
+    old_geo: MosaicGeometry,
+    new_geo: MosaicGeometry,
+    *,
+    target: tuple[float, float],
+    walk: float,
+    size: tuple[int, int],
+) -> np.ndarray:
+    """A map of the earlier mosaic (one plane, any values, shaped as the earlier mosaic or
+    reduced from it) as the new station sees it, (h, w) float32 for ``size`` = (w, h);
+    NaN where the earlier one saw nothing."""
+    w, h = size
+    sx, sy = new_geo.size[0] / w, new_geo.size[1] / h
+    ox, oy = old.shape[1] / old_geo.size[0], old.shape[0] / old_geo.size[1]
+    out = np.full((h, w), np.nan, np.float32)
+    plane = old.astype(np.float32, copy=False)
+    for y in range(h):
+        for x in range(w):
+            pan, tilt = new_geo.to_angles((x + 0.5) * sx, (y + 0.5) * sy)
+            pan = target[0] + (pan - target[0]) / walk
+            tilt = target[1] + (tilt - target[1]) / walk
+            seen = old_geo.to_mosaic(pan, tilt)
+            if seen is not None:
+                u, v = seen[0] * ox, seen[1] * oy
+                if 0 <= u < plane.shape[1] - 1 and 0 <= v < plane.shape[0] - 1:
+                    out[y, x] = plane[int(v), int(u)]
+    return out
+
+
+def register(
+    old: np.ndarray,
+    old_geo: MosaicGeometry,
+    new: np.ndarray,
+    new_geo: MosaicGeometry,
+    *,
+    target: tuple[float, float],
+    walk: float,
+) -> dict[str, Any]:
+    """The registration record for the new station's manifest: the prediction used, the
+    residual correction (pixels of the new mosaic, and degrees) and the correlation."""
+    rows, cols = new.shape[:2]
+    scale = _WORK / max(rows, cols)
+    size = (max(8, round(cols * scale)), max(8, round(rows * scale)))
+    coarse = (size[0] // 4, size[1] // 4)
+    grey = cv2.cvtColor(old, cv2.COLOR_BGR2GRAY)
+    predicted = carry(grey, old_geo, new_geo, target=target, walk=walk, size=coarse)
+    predicted = cv2.resize(predicted, size, interpolation=cv2.INTER_LINEAR)
+    seen = np.isfinite(predicted)
+    record: dict[str, Any] = {"prediction": "walk" if walk > 1.0 else "zoom", "overlap": 0.0}
+    record["overlap"] = round(float(seen.mean()), 3)
+    if seen.mean() < 0.1:
+        record["note"] = "the earlier station saw too little of this one to register"
+        return record
+    shot = cv2.resize(cv2.cvtColor(new, cv2.COLOR_BGR2GRAY), size, interpolation=cv2.INTER_AREA)
+    template = np.where(seen, predicted, shot.mean()).astype(np.float32)
+    warp = np.eye(2, 3, dtype=np.float32)
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 100, 1e-5)
+    try:
+        rho, warp = cv2.findTransformECC(
+            template,
+            shot.astype(np.float32),
+            warp,
+            cv2.MOTION_AFFINE,
+            criteria,
+            seen.astype(np.uint8),
+            5,
+        )
+    except cv2.error:
+        record["note"] = "image registration did not converge; the prediction stands"
+        return record
+    shift = (float(warp[0, 2]) / scale, float(warp[1, 2]) / scale)
+    deg_per_px = new_geo.camera.hfov / new_geo.tile_size[0]
+    record.update(
+        shift_px=[round(shift[0], 2), round(shift[1], 2)],
+        shift_deg=round(math.hypot(*shift) * deg_per_px, 4),
+        scale=round(float(math.sqrt(abs(np.linalg.det(warp[:, :2])))), 4),
+        correlation=round(float(rho), 4),
+    )
+    return record

@@ -1,0 +1,1 @@
+"""Offline tools: ``cyborgd analyze`` on saved images, and the paper's reproduction."""

@@ -1,0 +1,174 @@
+"""One image through the science core at its working size, and every product on disk.
+
+The vision worker's job (:func:`analyse_into`, named to the worker as
+``cyborg.daemon.vision.job:analyse_into`` so the service never imports the science core)
+and what the ``cyborgd analyze`` command, the demo and the benchmarks run
+(:func:`analyze_image`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import render
+from .explain import PLANE_NAMES, describe
+from .grid import reduce_to
+from .imageio import as_bgr8, write_atomic, write_jpeg, write_png
+from .interest import InterestPoint
+from .params import VisionParams, profile, with_settings
+from .pipeline import Analysis, analyze
+from .uncommon import uncommon_map
+
+__all__ = [
+    "analyse_into",
+    "analyze_image",
+    "input_points",
+    "result_document",
+    "working_reduction",
+    "write_products",
+]
+
+
+def working_reduction(shape: tuple[int, ...], params: VisionParams) -> float:
+    """How much to reduce an image of this shape before analysis: 1 up to ``max_pixels``.
+
+    >>> from cyborg.daemon.vision.params import DEFAULT
+    >>> working_reduction((3000, 4000), DEFAULT) > 3.0, working_reduction((300, 400), DEFAULT)
+    (True, 1.0)
+    """
+    pixels = shape[0] * shape[1]
+    if not params.max_pixels or pixels <= params.max_pixels:
+        return 1.0
+    return math.sqrt(pixels / params.max_pixels)
+
+
+def analyze_image(
+    image: np.ndarray,
+    params: VisionParams,
+    downsample: float | None = None,
+    prior: np.ndarray | None = None,
+) -> tuple[np.ndarray, Analysis]:
+    """Normalise, reduce (as the seed did, 4-8x; by default to the profile's working size),
+    analyse (with ``prior`` weights over the same ground, ``pipeline.analyze``); returns
+    (bgr, analysis)."""
+    bgr = as_bgr8(image)
+    if downsample is None:
+        downsample = working_reduction(bgr.shape, params)
+    work = bgr
+    if downsample != 1.0:
+        rows, cols = bgr.shape[:2]
+        size = (max(1, int(cols / downsample)), max(1, int(rows / downsample)))
+        work = reduce_to(bgr, size)
+    return bgr, analyze(work, params, prior)
+
+
+def _to_input(value: float, scale: float) -> float:
+    """Analysed-pixel coordinate -> input-pixel coordinate (pixel centres line up)."""
+    return (value + 0.5) * scale - 0.5
+
+
+def input_points(shape: tuple[int, ...], res: Analysis) -> list[InterestPoint]:
+    """The analysis's points in the pixels of an input of this shape (it may have been
+    reduced before analysis)."""
+    arows, acols = res.hsi.i.shape
+    sx, sy = shape[1] / acols, shape[0] / arows
+    return [
+        InterestPoint(p.rank, _to_input(p.x, sx), _to_input(p.y, sy), p.score, p.radius * sx)
+        for p in res.points
+    ]
+
+
+def result_document(
+    path: str, bgr: np.ndarray, res: Analysis, profile: str, products: dict[str, str]
+) -> dict[str, Any]:
+    """The ``result.json`` contents: points in input pixels, classes, parameters, timings."""
+    rows, cols = bgr.shape[:2]
+    arows, acols = res.hsi.i.shape
+    found = input_points(bgr.shape, res)
+    points = []
+    for p, expl, line in zip(found, res.explanations, res.descriptions, strict=True):
+        points.append(
+            {
+                "rank": p.rank,
+                "x": round(p.x, 2),
+                "y": round(p.y, 2),
+                "radius": round(p.radius, 2),
+                "score": round(p.score, 4),
+                "description": line,
+                "summary": describe(expl),
+                "explanation": expl,
+            }
+        )
+    classes = {
+        name: [
+            {"label": k, "value": seg.original_value(c.center), "radius": c.radius, "area": c.area}
+            for k, c in enumerate(seg.classes, start=1)
+        ]
+        for name, seg in zip(PLANE_NAMES, res.segmentations, strict=True)
+    }
+    return {
+        "image": path,
+        "width": cols,
+        "height": rows,
+        "analysed": {"width": acols, "height": arows},
+        "profile": profile,
+        "params": res.params.to_dict(),
+        "points": points,
+        "classes": classes,
+        "timing_ms": {k: round(v, 3) for k, v in res.timings_ms.items()},
+        "products": products,
+    }
+
+
+def write_products(
+    folder: Path, path: str, bgr: np.ndarray, res: Analysis, profile: str
+) -> dict[str, Any]:
+    """Write planes, segmentations, co-occurrence plots, maps, overlay and result.json."""
+    params = res.params
+    products: dict[str, str] = {}
+
+    def put(name: str, image: np.ndarray) -> None:
+        write_png(folder / name, image)
+        products[name.removesuffix(".png")] = name
+
+    for name, plane, seg in zip(PLANE_NAMES, res.hsi.planes, res.segmentations, strict=True):
+        low = name.lower()
+        put(f"plane_{low}.png", plane)
+        put(f"segmentation_{low}.png", render.segmentation_image(seg))
+        put(f"cooccurrence_{low}.png", render.cooccurrence_plot(seg))
+        put(f"uncommon_{low}.png", render.grey_ramp(uncommon_map(seg, params), vmax=8.0))
+    interest = np.maximum(res.interest.full(), 0.0)
+    put("interest.png", render.grey_ramp(interest))
+    scale = bgr.shape[1] / res.hsi.i.shape[1]
+    if scale == 1.0:
+        put("overlay.png", render.overlay(bgr, res.points))
+    else:  # a big input: the overlay at the analysed size, and a JPEG at full size
+        small = reduce_to(bgr, res.hsi.i.shape[::-1])
+        put("overlay.png", render.overlay(small, res.points))
+        write_jpeg(folder / "overlay_full.jpg", render.overlay(bgr, res.points, scale=scale))
+        products["overlay_full"] = "overlay_full.jpg"
+    doc = result_document(path, bgr, res, profile, products)
+    write_atomic(folder / "result.json", (json.dumps(doc, indent=2) + "\n").encode())
+    return doc
+
+
+def analyse_into(  # noqa: PLR0917 - the worker passes a job's arguments by position
+    folder: str,
+    image: np.ndarray,
+    profile_name: str,
+    label: str,
+    prior: np.ndarray | None = None,
+    settings: Sequence[str] = (),
+) -> dict[str, Any]:
+    """The vision worker's job: analyse a mosaic (weighted by ``prior``, memory across
+    stations) with the profile changed by ``settings`` (``NAME=VALUE``, the rig's
+    ``survey.settings``) and write every product into ``folder``."""
+    params = with_settings(profile(profile_name), list(settings))
+    bgr, res = analyze_image(image, params, prior=prior)
+    return write_products(Path(folder), label, bgr, res, profile_name)
