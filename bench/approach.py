@@ -3,11 +3,11 @@ own #1 at every station (no human), with and without memory, against the seed's 
 
 Each approach runs the survey engine in-process as ``cyborgd`` does (the PTU-46 emulator,
 a real vision worker process, the archive on disk) on ``sim://world?seed=N``
-(:class:`daemon.world.World`): a layered cliff with one wet stain among ledge shadows, a
-nodule cluster and a vein network, whose shadowed core (10 % of the stain's radius, 1-2 px
-from 300 m) only resolves close up. The approach is simulated as the lens narrowing by the
-distance ratio from the same tripod (``survey.simulate_approach``), so walking and
-intelligent zoom are the same optics here.
+(:class:`cyborg.daemon.sim.world.World`): a layered cliff with one wet stain among ledge
+shadows, a nodule cluster and a vein network, whose shadowed core (10 % of the stain's
+radius, 1-2 px from 300 m) only resolves close up. The approach is simulated as the lens
+narrowing by the distance ratio from the same tripod (``survey.simulate_approach``), so
+walking and intelligent zoom are the same optics here.
 
 Scores per condition:
 
@@ -49,7 +49,7 @@ from cyborg.daemon.pointing.geometry import CameraModel, angles_to_pixel
 from cyborg.daemon.ptu import open_ptu
 from cyborg.daemon.rig import Rig
 from cyborg.daemon.sim.world import World
-from cyborg.daemon.survey.machine import Survey, SurveyTelemetry
+from cyborg.daemon.survey import Survey, SurveyTelemetry
 from cyborg.daemon.worker import VisionWorker
 from cyborg.protocol.messages import ChooseTarget, SurveyStart
 

@@ -7,8 +7,9 @@ import math
 import cv2
 import numpy as np
 
-from cyborg.daemon.vision.interest import InterestMap, InterestPoint, find_points
+from cyborg.daemon.vision.interest import InterestMap, InterestPoint
 from cyborg.daemon.vision.params import VisionParams
+from cyborg.daemon.vision.peaks import find_points
 
 
 def spectral_residual(bgr: np.ndarray, width: int = 64) -> np.ndarray:

@@ -32,6 +32,7 @@ from cyborg.clients.launch import free_port, launch, simulated_config
 from cyborg.clients.rigclient import RigClient
 from cyborg.protocol.envelope import decode
 from cyborg.protocol.keys import Keys
+from cyborg.protocol.link import on_thread, open_session
 from cyborg.protocol.messages import Hello, PtuGoto, TakeControl
 from cyborg.protocol.transport import Transport
 from cyborg.protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
@@ -43,12 +44,12 @@ class _Watcher:
     """One subscriber session recording each frame's delivery latency."""
 
     def __init__(self, endpoint: str, key: str | None = None) -> None:
-        self.session = zenoh.open(zenoh.Config.from_json5(Transport(connect=(endpoint,)).json5()))
+        self.session = open_session(Transport(connect=(endpoint,)))
         self.samples: list[float] = []
         self.bytes = 0
         self.recording = False
         self.sub = self.session.declare_subscriber(
-            key or Keys("busbench").frame, zenoh.handlers.Callback(self._on, indirect=False)
+            key or Keys("busbench").frame, on_thread(self._on)
         )
 
     def _on(self, sample: zenoh.Sample) -> None:

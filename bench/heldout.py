@@ -1,13 +1,13 @@
 """Held-out outcrops: the bench's regimes drawn by a second, independent generator.
 
-``daemon.regimes`` and ``daemon.scene`` drew every synthetic scene the profiles were tuned
+``daemon.sim.regimes`` and ``daemon.sim.scene`` drew every synthetic scene the profiles were tuned
 on, so a figure measured on them can reward their habits (undulating contacts, elliptic
 shadows, tile exposures, Gaussian-blurred grain) as much as the method. The issue that set
 the goals found exactly that once (top-1 95.8 % on our scenes, 82 % on an independent
 generator of the same kind). Nothing here is used for tuning: the figures are reported,
 never optimised.
 
-Written apart from ``daemon.regimes``, on other models of the same things:
+Written apart from ``daemon.sim.regimes``, on other models of the same things:
 
 * beds are parallel strata on one fold (a sine of 120-400 px wavelength and a dip), each
   contact with its own rough random walk, sometimes offset by a fault; colours are drawn in
@@ -308,7 +308,7 @@ def _disc_radius(m: np.ndarray) -> float:
 
 
 def _length_radius(m: np.ndarray) -> float:
-    """A vein's size: half its extent, as ``daemon.regimes`` gives a vein's radius."""
+    """A vein's size: half its extent, as ``daemon.sim.regimes`` gives a vein's radius."""
     ys, xs = np.nonzero(m)
     return 0.5 * math.hypot(float(np.ptp(xs)), float(np.ptp(ys)))
 
@@ -406,7 +406,7 @@ REGIMES: dict[str, Callable[[int], Scene]] = {
     "veins": vein_scene,
     "empty": empty_scene,
 }
-"""The held-out generator's regimes, named as ``daemon.regimes.REGIMES`` names them."""
+"""The held-out generator's regimes, named as ``daemon.sim.regimes.REGIMES`` names them."""
 
 DESCRIPTIONS: dict[str, str] = {
     "tiny": "held out: 1-3 spots of 4-8 px radius",

@@ -41,7 +41,7 @@ from cyborg.daemon.ptu.emulator import Ptu46Emulator
 from cyborg.daemon.ptu.motion import move_time
 from cyborg.daemon.ptu.ptyserver import Fault
 from cyborg.daemon.rig import Rig
-from cyborg.daemon.survey.machine import Survey, SurveyTelemetry
+from cyborg.daemon.survey import Survey, SurveyTelemetry
 from cyborg.daemon.worker import VisionWorker
 from cyborg.protocol.messages import SurveyStart
 

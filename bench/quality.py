@@ -1,6 +1,6 @@
 """Science-quality benchmark: planted targets in generated outcrops, methods vs baselines.
 
-The scenes come in regimes (``daemon/regimes.py``), each reported on its own because a
+The scenes come in regimes (``daemon/sim/regimes.py``), each reported on its own because a
 detector tuned on one learns its shortcut: ``tiny`` (4-8 px targets, ``outcrop_scene``),
 ``seed`` (the seed papers' pale gypsum cliff with two dark wet stains, 108x192), ``large``
 (targets of 5-15 % of the image), ``veins`` (thin veins and cracks among ledge shadows) and
@@ -30,7 +30,7 @@ share of the view. Scores per regime and method, averaged over scenes:
   outcrop send the rover to the same place?
 
 With ``--camera`` every scene and look goes through an ordinary camera first
-(``daemon.regimes.through_camera``: vignetting, a light gradient, slight defocus, JPEG at
+(``sim.camera_effects.through_camera``: vignetting, a light gradient, slight defocus, JPEG at
 quality 60-90; sensor noise before the JPEG, as in a camera): the regimes are rendered
 perfectly, and a detector tuned on them alone may lean on what no real camera keeps. The
 camera's frame is the analysed size (JPEG's 8-px blocks and half-resolution colour at their
@@ -48,15 +48,11 @@ Usage: ``python -m bench.quality [--regimes tiny,seed,...] [--scenes 120] [--see
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
-import math
 import sys
 import time
 from collections.abc import Callable, Collection, Mapping, Sequence
-from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from bench import heldout
@@ -67,30 +63,23 @@ from bench.baselines import (
     rx_anomaly,
     spectral_residual,
 )
+from bench.quality_score import scaled_tolerance, score_scene, second_looks, truth
 from bench.stats import repeats, wilson
-from cyborg.daemon.sim.regimes import (
-    CAMERA_EFFECTS,
-    DESCRIPTIONS,
-    JPEG_QUALITY,
-    REGIMES,
-    seed_cliff,
-    through_camera,
-)
+from cyborg.daemon.sim.camera_effects import CAMERA_EFFECTS, JPEG_QUALITY, through_camera
+from cyborg.daemon.sim.regimes import DESCRIPTIONS, REGIMES, seed_cliff
 from cyborg.daemon.sim.scene import Scene
 from cyborg.daemon.vision.interest import InterestPoint
 from cyborg.daemon.vision.job import analyze_image, input_points
 from cyborg.daemon.vision.params import (
     PAPER,
     VisionParams,
-    add_settings_argument,
     compared,
     with_settings,
 )
+from cyborg.protocol.settings import add_settings_argument
 
 Method = Callable[[Scene, np.random.Generator], list[InterestPoint]]
 
-REFERENCE_SHAPE = (216, 288)
-"""The mosaic size on which ``--tolerance`` is given."""
 BASELINES = ("spectral-residual", "colour-rarity", "rx-anomaly", "random")
 GOALS = {"top1": 0.90, "any3": 0.97, "repeat1": 0.90, "distinct3": 0.95}
 """The issue's goals for ``default`` in every regime (``empty``: repeat@1 only)."""
@@ -126,91 +115,6 @@ def methods(settings: Sequence[str] = ()) -> dict[str, Method]:
         "rx-anomaly": lambda s, _r: points_from_map(rx_anomaly(s.image), True),
         "random": lambda s, r: random_points(s.image.shape[:2], 3, r),
     }
-
-
-def scaled_tolerance(shape: tuple[int, int], tolerance: float) -> float:
-    """``tolerance`` (given for 216x288) scaled with the image diagonal.
-
-    >>> round(scaled_tolerance((108, 192), 6.0), 2), scaled_tolerance((216, 288), 6.0)
-    (3.67, 6.0)
-    """
-    return tolerance * math.hypot(*shape) / math.hypot(*REFERENCE_SHAPE)
-
-
-def near_targets(scene: Scene, tolerance: float) -> np.ndarray:
-    """uint8 mask of pixels within ``tolerance`` of a target (computed once per scene)."""
-    size = 2 * round(tolerance) + 1
-    return cv2.dilate(
-        (scene.target_labels > 0).astype(np.uint8),
-        cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size)),
-    )
-
-
-@dataclass(frozen=True)
-class Truth:
-    """One scene's ground truth, computed once and shared by every method and point."""
-
-    near_target: np.ndarray
-    """(M, N) uint8: within the tolerance of a target."""
-    shadow: np.ndarray
-    """(M, N) bool: decoy pixels."""
-    objects: tuple[np.ndarray, ...]
-    """(K, 2) row, column pixels of each target, then of each connected decoy component."""
-    n_targets: int
-    tolerance: float
-
-    def owner(self, row: int, col: int, hit: bool) -> int | None:
-        """Index of the object a point at (row, col) is assigned to (see distinct@3)."""
-        n = self.n_targets
-        candidates = range(n) if hit else range(n, len(self.objects))
-        best, best_d = None, math.inf
-        for k in candidates:
-            px = self.objects[k]
-            d = float(np.sqrt(((px - (row, col)) ** 2).sum(axis=1).min()))
-            if d < best_d:
-                best, best_d = k, d
-        return best if hit or best_d <= self.tolerance else None
-
-
-def truth(scene: Scene, tolerance: float) -> Truth:
-    """Ground truth of ``scene`` at a hit tolerance already scaled to its size."""
-    n = len(scene.targets)
-    count, components = cv2.connectedComponents(scene.shadow_mask.astype(np.uint8), None, 8)
-    objects = [np.argwhere(scene.target_labels == i) for i in range(1, n + 1)]
-    objects += [np.argwhere(components == k) for k in range(1, count)]
-    return Truth(near_targets(scene, tolerance), scene.shadow_mask, tuple(objects), n, tolerance)
-
-
-def score_scene(truth: Truth, points: list[InterestPoint]) -> dict[str, float]:
-    """Scores of one scene's points (see the module docstring)."""
-    rows, cols = truth.near_target.shape
-    hits, decoys, owners = [], [], []
-    for p in points[:3]:
-        r = min(rows - 1, max(0, round(p.y)))
-        c = min(cols - 1, max(0, round(p.x)))
-        hits.append(bool(truth.near_target[r, c]))
-        decoys.append(bool(truth.shadow[r, c]) and not hits[-1])
-        owners.append(truth.owner(r, c, hits[-1]))
-    owned = [o for o in owners if o is not None]
-    return {
-        "top1": float(bool(hits) and hits[0]),
-        "any3": float(any(hits)),
-        "precision3": sum(hits) / 3.0,
-        "shadow3": sum(decoys) / 3.0,
-        "decoy1": float(bool(decoys) and decoys[0]),
-        "distinct3": float(len(owned) == len(set(owned))),
-    }
-
-
-def second_looks(scene: Scene, sigma: float = 2.0) -> tuple[Scene, Scene]:
-    """The same outcrop seen twice more: fresh sensor noise on each look, drawn from the
-    scene's seed so every method sees the same two looks."""
-    rng = np.random.default_rng([scene.seed, 2])
-    looks = []
-    for _ in range(2):
-        noisy = scene.image + rng.normal(0.0, sigma, scene.image.shape)
-        looks.append(dataclasses.replace(scene, image=np.clip(noisy, 0, 255).astype(np.uint8)))
-    return looks[0], looks[1]
 
 
 def run_regime(
@@ -410,7 +314,7 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="scenes and seed-case cliffs from bench.heldout, an independent generator",
     )
-    add_settings_argument(ap, "every pipeline profile alike")
+    add_settings_argument(ap, "every pipeline profile alike", default=[])
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     generators, descriptions = (
@@ -449,7 +353,7 @@ def main(argv: list[str] | None = None) -> int:
         lo, hi = JPEG_QUALITY
         print(
             f"through a camera: {', '.join(camera)} (JPEG quality {lo}-{hi}; frame "
-            f"{args.camera_scale:g}x the analysed size; daemon.regimes.through_camera)"
+            f"{args.camera_scale:g}x the analysed size; daemon.sim.camera_effects.through_camera)"
         )
     for name, table in results.items():
         rows, cols = generators[name](args.seed).image.shape[:2]

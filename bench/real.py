@@ -43,7 +43,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import math
 import os
 import sys
 import time
@@ -53,7 +52,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 
 from bench.baselines import (
@@ -63,19 +61,24 @@ from bench.baselines import (
     rx_anomaly,
     spectral_residual,
 )
+from bench.real_score import (
+    HIT_SHARE,
+    REPEAT_SHARE,
+    TOP_N,
+    diagonal,
+    hits,
+    looks,
+    near_mask,
+    score,
+)
 from bench.stats import repeats, wilson
-from cyborg.daemon.sim.regimes import jpeg_quality, jpeg_round_trip
+from cyborg.daemon.sim.camera_effects import jpeg_quality
 from cyborg.daemon.vision.imageio import ImageError, as_bgr8, read_image
 from cyborg.daemon.vision.interest import InterestPoint
 from cyborg.daemon.vision.job import analyze_image, input_points
-from cyborg.daemon.vision.params import VisionParams, add_settings_argument, compared
+from cyborg.daemon.vision.params import VisionParams, compared
+from cyborg.protocol.settings import add_settings_argument
 
-HIT_SHARE = 0.015
-"""Hit radius, as a share of the image diagonal."""
-REPEAT_SHARE = 0.03
-"""Two looks' best points repeat within this share of the diagonal."""
-NOISE_SIGMA = 2.0
-TOP_N = 3
 SET_ORDER = ("marsdata", "cwfid", "crackforest", "magnetic_tile", "ai4mars")
 TAG_SETS = frozenset({"marsdata"})
 """Sets also reported per manifest tag (the others' tags are provenance, not subsets)."""
@@ -90,10 +93,6 @@ def default_data_dir() -> Path:
     """$CYBORG_REAL_DATA, else ``shared/data/real`` next to the repository."""
     env = os.environ.get("CYBORG_REAL_DATA")
     return Path(env) if env else Path(__file__).resolve().parents[2] / "shared/data/real"
-
-
-def diagonal(shape: tuple[int, ...]) -> float:
-    return math.hypot(shape[0], shape[1])
 
 
 def pipeline_method(params: VisionParams) -> Method:
@@ -120,44 +119,6 @@ def methods(settings: Sequence[str] = ()) -> dict[str, Method]:
         "rx-anomaly": from_map(lambda img: rx_anomaly(as_bgr8(img)), True),
         "random": lambda img, rng: random_points(img.shape[:2], TOP_N, rng),
     }
-
-
-def near_mask(mask: np.ndarray) -> np.ndarray:
-    """bool mask of pixels within the hit radius of a target pixel (mask > 0)."""
-    target = (mask > 0).astype(np.uint8)
-    if not target.any():
-        return np.zeros(mask.shape, bool)
-    dist = cv2.distanceTransform(1 - target, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    return dist <= HIT_SHARE * diagonal(mask.shape)
-
-
-def hits(near: np.ndarray, points: Sequence[InterestPoint]) -> list[bool]:
-    """Hit flags of the first ``TOP_N`` points (rounded, clipped into the image)."""
-    rows, cols = near.shape
-    return [
-        bool(near[min(rows - 1, max(0, round(p.y))), min(cols - 1, max(0, round(p.x)))])
-        for p in points[:TOP_N]
-    ]
-
-
-def score(flags: list[bool]) -> dict[str, float]:
-    return {
-        "top1": float(bool(flags) and flags[0]),
-        "any3": float(any(flags)),
-        "p3": sum(flags) / TOP_N,
-    }
-
-
-def looks(image: np.ndarray, seed: int, jpeg: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Two noisy looks at the same image, the same for every method; with ``jpeg``, each
-    through a JPEG at that quality after its noise, as a camera saves a frame."""
-    rng = np.random.default_rng([seed, 2])
-    out = []
-    for _ in range(2):
-        noisy = np.clip(np.rint(image + rng.normal(0.0, NOISE_SIGMA, image.shape)), 0, 255)
-        look = noisy.astype(np.uint8)
-        out.append(look if jpeg is None else jpeg_round_trip(look, jpeg))
-    return out[0], out[1]
 
 
 @dataclass
@@ -428,7 +389,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--jpeg", type=_quality, default=None, metavar="Q", help="repeat looks through JPEG at Q"
     )
-    add_settings_argument(ap, "every pipeline profile alike")
+    add_settings_argument(ap, "every pipeline profile alike", default=[])
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     try:  # a mistyped setting is refused whether or not the data is here

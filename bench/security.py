@@ -5,11 +5,12 @@ on mutual TLS with the access list generated from a users file (alice operator, 
 viewer); certificates come from the documented recipe. Then:
 
 * **hostile queries**: ``--queries`` malformed, mistyped, out-of-range, forged,
-  other-version and control-less requests over every command key, sent by the operator
+  other-version and control-less requests over every command key that changes something
+  (read-only ones are the viewer's, ``Request.READ_ONLY``), sent by the operator
   herself (the most privileged stranger there is), concurrently, bounded in time;
 * **strangers**: no certificate, another CA's certificate, clear TCP on the TLS port, a
-  valid certificate of an unknown name, the viewer sending motion, the operator sending
-  on the viewer's key, and fake telemetry put by the operator;
+  valid certificate of an unknown name, the viewer sending what its role forbids, the
+  operator sending on the viewer's key, and fake telemetry put by the operator;
 * **the console**: cross-origin and DNS-rebinding requests, token-less calls, text/plain
   posts and a foreign-origin WebSocket against a real ``cyborg operator``.
 
@@ -51,6 +52,7 @@ from cyborg.clients.launch import (
 from cyborg.clients.rigclient import RigClient, RigError, RigUnavailableError
 from cyborg.protocol.envelope import decode, encode
 from cyborg.protocol.keys import COMMANDS
+from cyborg.protocol.link import on_thread, open_session
 from cyborg.protocol.messages import REQUESTS, Ack, PtuState, TakeControl
 from cyborg.protocol.transport import Transport
 
@@ -100,9 +102,10 @@ def _hostile(rng: random.Random, verb: str) -> bytes:
 
 
 async def _hostile_queries(alice: RigClient, n: int, seconds: float) -> Counter:
-    """``n`` hostile requests over every verb, 32 at a time, within ``seconds``."""
+    """``n`` hostile requests over every verb that is not read-only, 32 at a time, within
+    ``seconds``."""
     rng = random.Random(7)
-    verbs = [v for v in COMMANDS if v not in ("hello", "survey/status", "archive/list")]
+    verbs = [v for v in COMMANDS if not REQUESTS[v].READ_ONLY]
     out: Counter = Counter(tried=0, refused=0, executed=0)
     deadline = time.monotonic() + seconds
     sem = asyncio.Semaphore(32)
@@ -143,13 +146,13 @@ async def _strangers(endpoint: str, pki: Path) -> Counter:
     for transport in links.values():
         out["tried"] += 1
         try:
-            zenoh.open(zenoh.Config.from_json5(transport.json5())).close()
+            open_session(transport).close()
             out["executed"] += 1
         except zenoh.ZError:
             out["refused"] += 1
         await asyncio.sleep(0.15)  # the listener pauses 100 ms after a failed handshake
     tries: list[tuple[str, str, str]] = [("eve", "eve", v) for v in COMMANDS]
-    tries += [("bob", "bob", v) for v in COMMANDS if REQUESTS[v].MOVES or v == "control/take"]
+    tries += [("bob", "bob", v) for v in COMMANDS if not REQUESTS[v].READ_ONLY]
     tries += [("alice", "bob", v) for v in COMMANDS]
     for who, key, verb in tries:
         with RigClient.open(
@@ -222,11 +225,9 @@ class _Frames:
     """A subscriber session recording each live frame's delivery latency."""
 
     def __init__(self, transport: Transport) -> None:
-        self.session = zenoh.open(zenoh.Config.from_json5(transport.json5()))
+        self.session = open_session(transport)
         self.samples: list[float] = []
-        self.sub = self.session.declare_subscriber(
-            f"cyborg/{RIG}/cam/frame", zenoh.handlers.Callback(self._on, indirect=False)
-        )
+        self.sub = self.session.declare_subscriber(f"cyborg/{RIG}/cam/frame", on_thread(self._on))
 
     def _on(self, sample: zenoh.Sample) -> None:
         if sample.attachment is not None:

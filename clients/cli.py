@@ -37,8 +37,8 @@ from cyborg.protocol.messages import (
     SurveyStart,
     SurveyStatus,
     TakeControl,
-    check_setting,
 )
+from cyborg.protocol.settings import add_settings_argument
 from cyborg.protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 from .export import point_rows, to_csv, to_geojson
@@ -113,22 +113,15 @@ async def _goto(client: RigClient, args: argparse.Namespace) -> tuple[Report, st
     report, text = _acked(await client.command(PtuGoto(args.pan, args.tilt)))
     if not args.wait:
         return report, text
+    status = await client.command(SurveyStatus())
+    step = status.ptu_step or PtuState.MAX_STEP  # the unit's own, or an older rig's bound
     async with asyncio.timeout(args.timeout):
         while True:
             s = await states.get()
-            # One unit position is about 0.05 deg: a still head that close has arrived.
-            if not s.moving and abs(s.pan - args.pan) < 0.06 and abs(s.tilt - args.tilt) < 0.06:
+            if not s.moving and abs(s.pan - args.pan) <= step and abs(s.tilt - args.tilt) <= step:
                 break
     report |= {"pan": s.pan, "tilt": s.tilt}
     return report, f"at pan {s.pan:+.3f}, tilt {s.tilt:+.3f}"
-
-
-def _setting(text: str) -> str:
-    """argparse's reading of ``--set``: the protocol's form check, as a usage error."""
-    try:
-        return check_setting(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 async def _survey(client: RigClient, args: argparse.Namespace) -> tuple[Report, str]:
@@ -311,16 +304,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     survey.add_argument("--rows", type=int, help="mosaic rows (default: the rig's config)")
     survey.add_argument("--cols", type=int, help="mosaic columns")
     survey.add_argument("--downsample", type=float, help="tile reduction factor")
-    survey.add_argument("--profile", help="science profile: paper or default")
+    survey.add_argument(
+        "--profile",
+        help="science profile, one the rig knows (see cyborgd analyze --help); "
+        "default: the rig's survey.profile",
+    )
     given = survey.add_mutually_exclusive_group()
-    given.add_argument(
-        "--set",
-        action="append",
-        type=_setting,
-        dest="settings",
-        metavar="NAME=VALUE",
-        help="change a parameter of the profile for this station (repeatable; the rig checks "
-        "it before it moves), e.g. --set uncommon=surprisal; default: the rig's survey.settings",
+    add_settings_argument(
+        given,
+        "the profile for this station",
+        otherwise="the rig checks it before it moves; default: the rig's survey.settings",
     )
     given.add_argument(
         "--no-settings",

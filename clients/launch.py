@@ -21,8 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import zenoh
-
+from cyborg.protocol.link import ADMIN_SPACE, locators, open_session
 from cyborg.protocol.transport import Transport
 
 __all__ = [
@@ -180,20 +179,18 @@ async def launch(
 def router() -> Iterator[str]:
     """A zenoh router in this process on a loopback port the kernel picked; yields its
     endpoint (read back from the router's admin space)."""
-    cfg = zenoh.Config.from_json5(Transport("router", listen=("tcp/127.0.0.1:0",)).json5())
-    cfg.insert_json5("adminspace/enabled", "true")
-    session = zenoh.open(cfg)
+    session = open_session(Transport("router", listen=("tcp/127.0.0.1:0",)), ADMIN_SPACE)
     try:
-        info = next(iter(session.get(f"@/{session.zid()}/router", timeout=5.0)))
-        yield json.loads(info.ok.payload.to_string())["locators"][0]
+        yield locators(session)[0]
     finally:
         session.close()
 
 
 _WATCHER = """
-import sys, time, zenoh
+import sys, time
+from cyborg.protocol.link import open_session
 from cyborg.protocol.transport import Transport
-session = zenoh.open(zenoh.Config.from_json5(Transport("client", connect=(sys.argv[1],)).json5()))
+session = open_session(Transport("client", connect=(sys.argv[1],)))
 subscriber = session.declare_subscriber(sys.argv[2], lambda sample: None)
 print("watching", flush=True)
 while True:

@@ -22,7 +22,6 @@ from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-import zenoh
 from mcap.exceptions import McapError
 from mcap.records import Channel, Metadata, Schema
 from mcap.records import Message as McapMessage
@@ -32,6 +31,7 @@ from cyborg.protocol import recording as rec
 from cyborg.protocol.envelope import encode
 from cyborg.protocol.errors import ProtocolError
 from cyborg.protocol.keys import Keys
+from cyborg.protocol.link import open_session
 from cyborg.protocol.messages import Chip, Event, FrameHeader, Message
 from cyborg.protocol.transport import Transport
 
@@ -129,7 +129,7 @@ async def replay(path: Path, transport: Transport, rig: str, speed: float = 1.0)
     _, messages = read_log(path)
     keys = Keys(rig)
     seq = itertools.count(1)
-    session = zenoh.open(zenoh.Config.from_json5(transport.json5()))
+    session = open_session(transport)
     published = 0
     try:
         token = session.liveliness().declare_token(keys.alive)

@@ -1,8 +1,7 @@
 """An asyncio client of one rig's bus: commands, telemetry, live frames, liveliness.
 
-Depends on ``protocol`` only. zenoh callbacks run on zenoh's network thread
-(``indirect=False``: no Python thread outlives the session) and only hand copied bytes
-(or a liveliness change) to the event loop.
+Depends on ``protocol`` only. zenoh callbacks (:func:`protocol.link.to_loop`) only hand
+copied bytes (or a liveliness change) to the event loop.
 """
 
 from __future__ import annotations
@@ -22,6 +21,7 @@ import zenoh
 from cyborg.protocol.envelope import MAX_MESSAGE, decode, encode
 from cyborg.protocol.errors import ProtocolError
 from cyborg.protocol.keys import Keys, check_client
+from cyborg.protocol.link import open_session, to_loop
 from cyborg.protocol.messages import (
     Ack,
     FrameHeader,
@@ -101,7 +101,7 @@ class RigClient:
     @contextlib.contextmanager
     def open(cls, transport: Transport, rig: str, name: str) -> Iterator[RigClient]:
         Keys(rig), check_client(name)  # refuse bad names before opening anything
-        client = cls(zenoh.open(zenoh.Config.from_json5(transport.json5())), rig, name)
+        client = cls(open_session(transport), rig, name)
         try:
             yield client
         finally:
@@ -199,7 +199,6 @@ class RigClient:
     def subscribe(self, key: str, kind: type[R], maxsize: int = 0) -> asyncio.Queue[R]:
         """Messages of ``kind`` on ``key`` (anything else there is dropped); with
         ``maxsize`` the oldest are dropped (latest wins)."""
-        loop = asyncio.get_running_loop()
         queue: asyncio.Queue[R] = asyncio.Queue()
 
         def push(msg: R) -> None:
@@ -207,19 +206,15 @@ class RigClient:
                 queue.get_nowait()
             queue.put_nowait(msg)
 
-        def on_sample(sample: zenoh.Sample) -> None:
+        def pick(sample: zenoh.Sample) -> R | None:
             try:
                 env = decode(sample.payload.to_bytes())
                 msg = message_from(env.kind, env.body)
             except ProtocolError:
-                return
-            if isinstance(msg, kind):
-                with contextlib.suppress(RuntimeError):
-                    loop.call_soon_threadsafe(push, msg)
+                return None
+            return msg if isinstance(msg, kind) else None
 
-        self._entities.append(
-            self.session.declare_subscriber(key, zenoh.handlers.Callback(on_sample, indirect=False))
-        )
+        self._entities.append(self.session.declare_subscriber(key, to_loop(push, pick)))
         return queue
 
     async def stream(self, fps: float, width: int, quality: int = 70) -> str:
@@ -245,23 +240,18 @@ class RigClient:
     ) -> zenoh.Subscriber:
         """Call ``on_frame`` on the loop with each live frame until the returned subscriber
         is undeclared; the daemon grabs frames only while somebody subscribes."""
-        loop = asyncio.get_running_loop()
 
-        def on_sample(sample: zenoh.Sample) -> None:
+        def pick(sample: zenoh.Sample) -> LiveFrame | None:
             if sample.attachment is None:
-                return
+                return None
             try:
                 env = decode(sample.attachment.to_bytes())
                 header = FrameHeader.from_body(env.body)
             except ProtocolError:
-                return
-            frame = LiveFrame(sample.payload.to_bytes(), header, env.ts)
-            with contextlib.suppress(RuntimeError):
-                loop.call_soon_threadsafe(on_frame, frame)
+                return None
+            return LiveFrame(sample.payload.to_bytes(), header, env.ts)
 
-        return self.session.declare_subscriber(
-            key or self.keys.frame, zenoh.handlers.Callback(on_sample, indirect=False)
-        )
+        return self.session.declare_subscriber(key or self.keys.frame, to_loop(on_frame, pick))
 
     async def wait_alive(self, timeout: float = 10.0) -> None:
         """Return once the rig's liveliness token is visible (its commands are declared
@@ -286,15 +276,12 @@ class RigClient:
     def _liveliness(self, on_change: Callable[[bool], None]) -> zenoh.Subscriber:
         """Call ``on_change`` on the loop with True when the rig's liveliness token is
         (or becomes) visible, False when it goes."""
-        loop = asyncio.get_running_loop()
 
-        def on_sample(sample: zenoh.Sample) -> None:
-            up = sample.kind == zenoh.SampleKind.PUT
-            with contextlib.suppress(RuntimeError):
-                loop.call_soon_threadsafe(on_change, up)
+        def pick(sample: zenoh.Sample) -> bool:
+            return sample.kind == zenoh.SampleKind.PUT
 
         return self.session.liveliness().declare_subscriber(
-            self.keys.alive, zenoh.handlers.Callback(on_sample, indirect=False), history=True
+            self.keys.alive, to_loop(on_change, pick), history=True
         )
 
     @contextlib.asynccontextmanager

@@ -14,6 +14,7 @@ from pathlib import Path
 import cv2
 import zenoh
 
+from cyborg.protocol.settings import add_settings_argument
 from cyborg.protocol.transport import MODES
 from cyborg.protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
 
@@ -25,7 +26,7 @@ from .ptu.emulator import Ptu46Emulator
 from .ptu.models import MODELS
 from .ptu.ptyserver import BANNER, PtyEmulatorServer, parse_fault, serve
 from .router import run_router
-from .vision.params import PROFILES, add_settings_argument, profile, with_settings
+from .vision.params import PROFILES, profile, with_settings
 from .zenohlog import route_zenoh_logs
 
 _LOGGER = logging.getLogger(__name__)
@@ -104,7 +105,7 @@ def _analyze_parser(sub: argparse._SubParsersAction) -> None:
     )
     ap.add_argument("--profile", choices=sorted(PROFILES), default="default")
     ap.add_argument("--top", type=int, default=None, metavar="N", help="number of interest points")
-    add_settings_argument(ap, "the profile")
+    add_settings_argument(ap, "the profile", default=[])
     ap.add_argument(
         "--downsample",
         type=float,
@@ -159,7 +160,7 @@ def _router_parser(sub: argparse._SubParsersAction) -> None:
     ap = sub.add_parser(
         "router", help="run the field network's zenoh router (TLS, access list from users)"
     )
-    ap.add_argument("--config", type=Path, required=True, help="router.toml (see README)")
+    ap.add_argument("--config", type=Path, required=True, help="router.toml (see docs/security.md)")
 
 
 def _run_emulator(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
@@ -240,7 +241,7 @@ def _main(argv: list[str] | None) -> int:
                 parser.error("--top must be >= 0")
             params = params.replace(top_n=args.top)
         # The science core is loaded only to analyse, never by the service.
-        cli = importlib.import_module(".analyze", __package__)
+        cli = importlib.import_module(".tools.analyze", __package__)
         opts = cli.AnalyzeOptions(args.out, args.profile, params, args.downsample, args.json)
         return cli.analyze_files(args.images, opts)
     if args.command == "run":

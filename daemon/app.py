@@ -40,7 +40,7 @@ from .ptu import LinkState, PtuError, open_ptu
 from .record import Recorder, recover_logs
 from .rig import Rig
 from .sdnotify import Notifier
-from .survey.machine import Survey, SurveyTelemetry
+from .survey import Survey, SurveyTelemetry
 from .survey.site import Gpsd, Orientation, where
 from .worker import VisionWorker
 
@@ -172,7 +172,7 @@ async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
     elif cfg.zenoh.access is None and cfg.zenoh.loopback():
         _LOGGER.warning(
             "no access list on loopback %s: any user of this machine may drive the PTU and "
-            "feed clients fake state (a unix socket or [zenoh] users closes it: README Security)",
+            "feed clients fake state (a unix socket or [zenoh] users closes it: docs/security.md)",
             ", ".join(cfg.zenoh.loopback()),
         )
     async with contextlib.AsyncExitStack() as stack:

@@ -67,6 +67,10 @@ class Station:
         self.manifest.update(fields)
         self.save()
 
+    def amend(self, name: str, **fields: Any) -> None:
+        """Add ``fields`` to the manifest's mapping ``name`` (a choice's next plan, its zoom)."""
+        self.update(**{name: self.manifest[name] | fields})
+
     def _record(self, rel: str, size: int) -> None:
         self.manifest.setdefault("files", {})[rel] = size
 
@@ -161,6 +165,8 @@ class Archive:
         return name
 
     def new_station(self, session: str, index: int, distance_m: float, **fields: Any) -> Station:
+        """A station's folder and manifest: ``fields`` (its plan, site, requester, aim), then
+        what the station fills in (tiles, chips, points, the choice, timing)."""
         folder = self.root / session / f"st{index:02d}-{distance_m:g}m"
         folder.mkdir(parents=True, exist_ok=False)
         station = Station(folder)
@@ -177,6 +183,11 @@ class Archive:
             finished=None,
             files={},
             **fields,
+            tiles=[],
+            chips=[],
+            points=[],
+            choice=None,
+            timing={},
         )
         return station
 
@@ -207,6 +218,12 @@ class Archive:
         if size > max_size:
             raise ArchiveError(f"{product} is {size} bytes, over the {max_size}-byte message limit")
         return path.read_bytes()
+
+    def manifest(self, station_id: str) -> dict[str, Any]:
+        """The manifest of station ``session/name``; ArchiveError if there is none, ValueError
+        if it is not JSON."""
+        session, _, name = station_id.partition("/")
+        return json.loads(self.read(session, f"{name}/{MANIFEST}", 1 << 20))
 
     def _session(self, session: str) -> Path:
         if not session or not _public(session) or "/" in session or "\\" in session:

@@ -1,9 +1,7 @@
 """The daemon's side of the zenoh bus, bridged into asyncio.
 
-zenoh-python 1.x is synchronous and calls back on its own threads. Callbacks here do one
-thing: hand the data to the event loop with ``call_soon_threadsafe``. They run on the
-network thread (``indirect=False``) so no Python thread outlives the session, which
-would otherwise hang interpreter exit (zenoh-python#434).
+The session and the command queryable's hand-off to the event loop come from
+:mod:`protocol.link`.
 
 Nothing sent from here may block the event loop, because a HALT waits behind it. A
 message sent with zenoh's ``BLOCK`` congestion control waits, when one peer stops
@@ -27,7 +25,6 @@ import collections
 import contextlib
 import itertools
 import logging
-import os
 import threading
 from collections.abc import Awaitable, Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
@@ -37,10 +34,11 @@ import zenoh
 from cyborg.protocol.envelope import MAX_MESSAGE, encode
 from cyborg.protocol.errors import VersionError
 from cyborg.protocol.keys import Keys
+from cyborg.protocol.link import open_session, to_loop
 from cyborg.protocol.messages import Message, clip
 from cyborg.protocol.transport import Transport
 
-__all__ = ["OUTBOX_BOUND", "Bus", "CommandHandler", "Outbox", "open_session"]
+__all__ = ["OUTBOX_BOUND", "Bus", "CommandHandler", "Outbox"]
 
 _LOGGER = logging.getLogger(__name__)
 
@@ -48,11 +46,6 @@ CommandHandler = Callable[[str, str, bytes], Awaitable[bytes]]
 """(caller, verb, request payload) -> reply payload (an encoded envelope). The caller is the
 ``<client>`` segment of the key. A VersionError raised is sent as a plain-text error
 reply, which a peer of any protocol version can read."""
-
-
-SOCKET_MODE = 0o660
-"""The rig's unix sockets: its own user and group (the scientist's account joins group
-``cyborg``). zenoh creates them by the umask, and connecting needs write permission."""
 
 
 OUTBOX_BOUND = 256
@@ -125,13 +118,6 @@ class Outbox:
                     dropped - reported,
                 )
                 reported = dropped
-
-
-def open_session(transport: Transport) -> zenoh.Session:
-    session = zenoh.open(zenoh.Config.from_json5(transport.json5()))
-    for path in transport.unix_sockets():
-        os.chmod(path, SOCKET_MODE)
-    return session
 
 
 class Bus:
@@ -247,15 +233,9 @@ class Bus:
         Declared before the liveliness token, so a client that sees the rig alive can
         command it.
         """
-        loop = asyncio.get_running_loop()
         queries: asyncio.Queue[zenoh.Query] = asyncio.Queue()
-
-        def on_query(query: zenoh.Query) -> None:
-            with contextlib.suppress(RuntimeError):  # loop closed during shutdown
-                loop.call_soon_threadsafe(queries.put_nowait, query)
-
         self._queryable = self.session.declare_queryable(
-            self.keys.all_commands, zenoh.handlers.Callback(on_query, indirect=False)
+            self.keys.all_commands, to_loop(queries.put_nowait)
         )
         return queries
 

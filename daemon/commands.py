@@ -31,6 +31,7 @@ from cyborg.protocol.messages import (
     PtuJog,
     PtuLook,
     ReleaseControl,
+    Request,
     Status,
     StreamRequest,
     SurveyCancel,
@@ -46,7 +47,7 @@ from .liveview import LiveViews
 from .pointing.geometry import pixel_to_angles
 from .ptu import PtuConnectionError, PtuError, PtuLimitError, PtuTimeoutError
 from .rig import Rig
-from .survey.machine import Survey, SurveyBusyError
+from .survey import Survey, SurveyBusyError, station_geometry
 from .worker import VisionWorker
 
 __all__ = ["MOTION", "Commands"]
@@ -143,27 +144,27 @@ class Commands:
 
     # -- motion ------------------------------------------------------------------------
 
-    def _idle(self, name: str) -> None:
+    def _idle(self, msg: Request) -> None:
         if self.survey.running:
-            raise SurveyBusyError(f"{name}: a survey is moving the head; cancel it first")
+            raise SurveyBusyError(f"{msg.VERB}: a survey is moving the head; cancel it first")
 
     async def _ptu_goto(self, msg: PtuGoto, src: str) -> Message:
-        self._idle("ptu/goto")
+        self._idle(msg)
         await self.rig.ptu.move_to(msg.pan, msg.tilt, wait=False)
         self.rig.mark_moving()
         return Ack("OK", f"moving to pan {msg.pan:.3f}, tilt {msg.tilt:.3f}")
 
     async def _ptu_jog(self, msg: PtuJog, src: str) -> Message:
-        self._idle("ptu/jog")
+        self._idle(msg)
         here = self.rig.pose
         await self.rig.ptu.move_to(here.pan + msg.pan, here.tilt + msg.tilt, wait=False)
         self.rig.mark_moving()
         return Ack("OK", f"jogging by {msg.pan:+.3f}, {msg.tilt:+.3f}")
 
     async def _ptu_look(self, msg: PtuLook, src: str) -> Message:
-        self._idle("ptu/look")
+        self._idle(msg)
         if msg.station:
-            geometry = await asyncio.to_thread(self.survey.geometry_of, msg.station)
+            geometry = await asyncio.to_thread(station_geometry, self.archive, msg.station)
             width, height = geometry.size
             pan, tilt = geometry.to_angles(msg.u * width, msg.v * height)
         else:
@@ -175,7 +176,7 @@ class Commands:
         return Ack("OK", f"looking at pan {pan:.3f}, tilt {tilt:.3f}")
 
     async def _ptu_home(self, msg: PtuHome, src: str) -> Message:
-        self._idle("ptu/home")
+        self._idle(msg)
         await self.rig.ptu.move_to(0.0, 0.0, wait=False)
         self.rig.mark_moving()
         return Ack("OK", "moving to pan 0, tilt 0")
@@ -208,7 +209,16 @@ class Commands:
             self.worker.pid,
             s.last_error,
             s.awaiting_result,
+            self._ptu_step(),
         )
+
+    def _ptu_step(self) -> float:
+        """The unit's coarser position step in degrees; 0 while it has not reported."""
+        try:
+            info = self.rig.ptu.info
+        except PtuError:
+            return 0.0
+        return max(info.pan.degrees_per_position, info.tilt.degrees_per_position)
 
     # -- control -----------------------------------------------------------------------
 

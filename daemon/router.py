@@ -35,6 +35,7 @@ import zenoh
 
 from cyborg.protocol.access import access_control, load_users
 from cyborg.protocol.keys import Keys
+from cyborg.protocol.link import ADMIN_SPACE, locators, open_session
 from cyborg.protocol.transport import Transport
 
 from .zenohlog import route_zenoh_logs
@@ -90,13 +91,10 @@ async def _serve(transport: Transport, ready: TextIO) -> int:
         loop.add_signal_handler(sig, stop.set)
     if transport.exposed():
         _LOGGER.warning("insecure: clear-text endpoints beyond loopback: %s", transport.exposed())
-    cfg = zenoh.Config.from_json5(transport.json5())
-    cfg.insert_json5("adminspace/enabled", "true")
-    session = zenoh.open(cfg)
+    session = open_session(transport, ADMIN_SPACE)
     try:
-        info = next(iter(session.get(f"@/{session.zid()}/router", timeout=5.0)))
-        locators = json.loads(info.ok.payload.to_string())["locators"]
-        print(json.dumps({"ready": True, "locators": locators}), file=ready, flush=True)
+        ready_line = {"ready": True, "locators": locators(session)}
+        print(json.dumps(ready_line), file=ready, flush=True)
         await stop.wait()
     finally:
         session.close()

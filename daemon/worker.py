@@ -4,6 +4,10 @@ A separate process keeps the event loop (PTU, bus, live frames) responsive while
 mosaic is analysed, and a crash in native image code cannot take the daemon with it.
 It is started with the ``spawn`` method: forking a process that has a zenoh session
 open hangs the child (see the stack notes).
+
+The contract is typed: a call sends a :class:`Job` (a picklable value, e.g. the frozen
+dataclass ``vision.contract.AnalysisJob``) and gets back an instance of the type the job
+promises (``Job.returns``); anything else is a :class:`WorkerError`.
 """
 
 from __future__ import annotations
@@ -11,7 +15,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import ctypes
-import importlib
 import itertools
 import logging
 import multiprocessing as mp
@@ -22,9 +25,9 @@ import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
-from typing import Any, Self
+from typing import Any, ClassVar, Protocol, Self, TypeVar, runtime_checkable
 
-__all__ = ["VisionWorker", "WorkerCrashedError", "WorkerError"]
+__all__ = ["Job", "VisionWorker", "WorkerCrashedError", "WorkerError"]
 
 _LOGGER = logging.getLogger(__name__)
 
@@ -52,19 +55,19 @@ def _die_with(parent: int) -> None:
         os._exit(0)
 
 
-Job = Callable[..., Any] | str
-"""A picklable function, or one named ``"package.module:function"`` and imported in the
-worker: the daemon can run the science core without loading it itself."""
+R = TypeVar("R")
+R_co = TypeVar("R_co", covariant=True)
 
 
-def _resolve(job: Job) -> Callable[..., Any]:
-    if callable(job):
-        return job
-    module, _, name = job.partition(":")
-    fn = getattr(importlib.import_module(module), name, None) if name else None
-    if not callable(fn):
-        raise TypeError(f"no job {job!r}: want 'package.module:function'")
-    return fn
+@runtime_checkable
+class Job(Protocol[R_co]):
+    """A typed request: a picklable value whose :meth:`run`, called in the worker process,
+    returns an instance of :attr:`returns`. The daemon imports the job's module, so it
+    stays light: ``run`` imports the heavy code (the science core) it needs."""
+
+    returns: ClassVar[type]
+
+    def run(self) -> R_co: ...
 
 
 @dataclass(frozen=True)
@@ -72,8 +75,7 @@ class _Call:
     """One job sent to the worker; ``id`` ties the reply to the call that is waiting."""
 
     id: int
-    job: Job
-    args: tuple[Any, ...]
+    job: Job[Any]
 
 
 @dataclass(frozen=True)
@@ -105,7 +107,7 @@ def _serve(conn: Connection, parent: int) -> None:
         except (EOFError, OSError):
             return
         try:
-            reply = _Reply(call.id, value=_resolve(call.job)(*call.args))
+            reply = _Reply(call.id, value=_run(call.job))
         except Exception as exc:  # reported to the daemon, which decides
             reply = _Reply(
                 call.id, error=f"{type(exc).__name__}: {exc}", traceback=traceback.format_exc()
@@ -116,8 +118,18 @@ def _serve(conn: Connection, parent: int) -> None:
             return
 
 
+def _run(job: Job[R]) -> R:
+    """Run ``job``; a value other than the type it promised is the job's error."""
+    value = job.run()
+    if not isinstance(value, job.returns):
+        raise TypeError(
+            f"{type(job).__name__} returned {type(value).__name__}, not {job.returns.__name__}"
+        )
+    return value
+
+
 class VisionWorker:
-    """One worker process; :meth:`call` runs a job (a picklable or named function) in it.
+    """One worker process; :meth:`call` runs a :class:`Job` in it.
     An async context manager: started on entry, stopped on exit."""
 
     def __init__(self, on_restart: Callable[[str], None] | None = None) -> None:
@@ -160,21 +172,24 @@ class VisionWorker:
         if self.on_restart is not None:
             self.on_restart(text)
 
-    async def call(self, fn: Job, *args: Any) -> Any:
-        """Run ``fn(*args)`` in the worker (``fn`` a :data:`Job`); one job at a time.
+    async def call(self, job: Job[R]) -> R:
+        """Run ``job`` in the worker and return its result; one job at a time.
 
         Cancelling the call kills the worker and starts a fresh one before the cancellation
         goes on: the job stops computing and writing at once (so its caller can clean up
         what it wrote), and no late reply can reach the next call. A restart costs less
         than the rest of an analysis nobody wants (``make bench-field``).
 
-        Raises WorkerCrashedError if the process dies meanwhile, WorkerError if ``fn`` raised.
+        Raises WorkerCrashedError if the process dies meanwhile, WorkerError if ``job`` is no
+        :class:`Job`, raised, or returned another type than it promised.
         """
+        if isinstance(job, type) or not isinstance(job, Job):
+            raise WorkerError(f"not a worker job: {type(job).__name__} (want run() and returns)")
         async with self._lock:
             proc, conn = self._proc, self._conn
             if proc is None or conn is None:
                 raise WorkerCrashedError("vision worker is not running")
-            call = _Call(next(self._ids), fn, args)
+            call = _Call(next(self._ids), job)
             roundtrip = asyncio.ensure_future(asyncio.to_thread(self._roundtrip, proc, conn, call))
             try:
                 return await asyncio.shield(roundtrip)

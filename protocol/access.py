@@ -7,8 +7,8 @@ segment, so it cannot speak for anyone else, and let nobody but the rig itself p
 the rig's telemetry. Roles:
 
 * ``operator``: every command, all telemetry and frames;
-* ``viewer``: telemetry, frames (``cam/stream`` included), ``hello``, ``survey/status`` and
-  the archive (read only).
+* ``viewer``: telemetry, frames and the commands that change nothing (``READ_ONLY`` on
+  their request class: ``hello``, ``survey/status``, ``cam/stream`` and the archive).
 
 Clients on the rig's own unix socket (``unixsock-stream``) may send any command under any
 name: the socket's file permissions are their credential. They cannot publish telemetry.
@@ -32,14 +32,15 @@ from dataclasses import dataclass
 from typing import Any
 
 from .keys import COMMANDS, Keys, check_client
+from .messages import REQUESTS
 
 __all__ = ["ROLES", "User", "Users", "access_control", "load_users"]
 
 ROLES: dict[str, tuple[str, ...]] = {
     "operator": COMMANDS,
-    "viewer": ("hello", "survey/status", "archive/list", "archive/get", "cam/stream"),
+    "viewer": tuple(verb for verb, request in REQUESTS.items() if request.READ_ONLY),
 }
-"""The command verbs each role may send."""
+"""The command verbs each role may send (a viewer: those ``Request.READ_ONLY``)."""
 
 _FROM_CLIENT = ["declare_subscriber", "declare_liveliness_subscriber", "liveliness_query"]
 _TO_CLIENT = ["put", "delete", "reply", "liveliness_token", "declare_queryable"]

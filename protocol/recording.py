@@ -26,6 +26,7 @@ from importlib import resources
 from typing import Any
 
 from .messages import MESSAGES, Event, InterestResult, Message
+from .palette import POINT_RGB, unit_rgb
 
 __all__ = [
     "ANNOTATIONS",
@@ -63,8 +64,8 @@ MOSAIC, ANNOTATIONS, LOG, TF = "/survey/mosaic", "/survey/annotations", "/log", 
 LOG_LEVELS = {"debug": 1, "info": 2, "warning": 3, "error": 4}
 """Event levels as foxglove.Log levels (and back)."""
 
-_COLOURS = [(0.902, 0.624, 0.0), (0.337, 0.706, 0.914), (0.835, 0.369, 0.0)]
-"""Ranks 1..3: the overlay's Okabe-Ito orange, sky blue, vermillion."""
+_COLOURS = [unit_rgb(rgb) for rgb in POINT_RGB]
+"""Ranks 1..3, as the overlay draws them."""
 
 
 def schema_name(kind: str) -> str:

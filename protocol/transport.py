@@ -97,7 +97,7 @@ class Transport:
             raise ValueError(
                 f"{', '.join(self.exposed())} would carry the bus in clear text beyond this "
                 "machine, where anyone on the way could drive the PTU or forge the rig's "
-                "telemetry; use tls/ (README: Security), loopback or a unix socket, or say "
+                "telemetry; use tls/ (docs/security.md), loopback or a unix socket, or say "
                 "insecure = true (--insecure) for a lab bench"
             )
         anonymous = [ep for ep in self.reachable() if _tls(ep)]

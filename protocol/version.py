@@ -4,6 +4,7 @@
 binds control to it; a 1.x peer is refused with "protocol 2 required".
 2.1: interest points carry azimuth and elevation; a status, the result awaiting a choice.
 2.2: a survey start may carry the station's parameter settings (``NAME=VALUE``).
+2.3: a status carries the PTU's position step (``ptu_step``), read from the unit.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ BUILD = importlib.metadata.version("cyborg-astrobiologist")
 """This installation's version (``cyborgd --version``, ``cyborg --version``, ``hello``)."""
 
 PROTOCOL_MAJOR = 2
-PROTOCOL_MINOR = 2
+PROTOCOL_MINOR = 3
 
 
 def compatible(major: int) -> bool:

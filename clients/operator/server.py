@@ -80,6 +80,7 @@ class Operator:
                 web.get("/", self._index, name=INDEX),
                 web.static("/static", STATIC, name=ASSETS),
                 web.get("/ws", self._socket),
+                web.get("/api/commands", self._commands),
                 web.post("/api/view", self._view),
                 web.post("/api/{verb:.+}", self._command),
                 web.get("/api/archive", self._archive),
@@ -192,6 +193,17 @@ class Operator:
                 page.wake.set()
 
     # -- commands ------------------------------------------------------------------------
+
+    async def _commands(self, request: web.Request) -> web.Response:
+        """``GET /api/commands``: the commands ``POST /api/<verb>`` takes, from the protocol's
+        registry, and what each needs ({verb: {moves, read_only}}); the page reads it."""
+        return web.json_response(
+            {
+                verb: {"moves": kind.MOVES, "read_only": kind.READ_ONLY}
+                for verb, kind in REQUESTS.items()
+                if kind.REPLY is Ack
+            }
+        )
 
     async def _command(self, request: web.Request) -> web.Response:
         """``POST /api/<verb>`` with the request's fields as a JSON object: every command the

@@ -12,22 +12,25 @@
 
 A zoom lens on its own line is named apart (``[camera] zoom``), e.g.
 ``visca:///dev/ttyUSB1?max=30`` (:mod:`daemon.camera.visca`).
+
+A backend is a :class:`Camera` with a ``from_url(url, pose, zoom)`` class method, named by a
+row of :data:`BACKENDS` and imported when a URL first asks for it.
 """
 
 from __future__ import annotations
 
 import importlib
 from typing import TYPE_CHECKING, Any
-from urllib.parse import parse_qs, urlsplit
 
 from .base import Camera, CameraError, CameraUnavailableError, Exposure, Frame, PoseSource
 
 if TYPE_CHECKING:
     from .opencv import OpenCvCamera
     from .simulated import Panorama, SimulatedCamera, WorldTarget, outcrop_panorama
-    from .visca import ViscaZoom
 
 __all__ = [
+    "BACKENDS",
+    "OTHERWISE",
     "Camera",
     "CameraError",
     "CameraUnavailableError",
@@ -40,6 +43,12 @@ __all__ = [
     "open_camera",
     "outcrop_panorama",
 ]
+
+BACKENDS: dict[str, str] = {"sim": ".simulated:SimulatedCamera"}
+"""URL scheme -> ``module:class`` of its backend (relative to this package), built by its
+``from_url(url, pose, zoom)``."""
+OTHERWISE = ".opencv:OpenCvCamera"
+"""Every other URL (``v4l2://``, ``file://``, ``gst://``, a bare path) is OpenCV's."""
 
 _LAZY = {
     "OpenCvCamera": ".opencv",
@@ -58,10 +67,6 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def _backend(module: str) -> Any:
-    return importlib.import_module(module, __name__)
-
-
 def open_camera(url: str, pose: PoseSource | None = None, zoom: str = "") -> Camera:
     """Build (not open) the camera a URL names; ``pose`` feeds simulated cameras; ``zoom``
     names the lens's zoom line (``visca:///dev/ttyUSB1?max=30``; simulated cameras have
@@ -72,20 +77,6 @@ def open_camera(url: str, pose: PoseSource | None = None, zoom: str = "") -> Cam
     >>> open_camera("v4l2://0", zoom="visca:///dev/ttyUSB1?max=20").lens.max_level
     20.0
     """
-    if url.startswith("sim://"):
-        return _backend(".simulated").SimulatedCamera.from_url(url, pose)
-    opencv = _backend(".opencv")
-    source, api, loop = opencv.parse_source(url)
-    return opencv.OpenCvCamera(source, api, loop=loop, zoom=_zoom(zoom) if zoom else None)
-
-
-def _zoom(url: str) -> ViscaZoom:
-    parts = urlsplit(url)
-    if parts.scheme != "visca" or not parts.path:
-        raise ValueError(f"zoom {url!r}: want visca:///dev/ttyUSB1?max=30")
-    query = parse_qs(parts.query)
-    return _backend(".visca").ViscaZoom(
-        parts.path,
-        max_level=float(query.get("max", ["30"])[-1]),
-        baudrate=int(query.get("baud", ["9600"])[-1]),
-    )
+    scheme = url.partition("://")[0] if "://" in url else ""
+    module, _, name = BACKENDS.get(scheme, OTHERWISE).partition(":")
+    return getattr(importlib.import_module(module, __name__), name).from_url(url, pose, zoom)

@@ -75,6 +75,14 @@ class OpenCvCamera(Camera):
         self._seq = 0
         self.reconnects = 0
 
+    @classmethod
+    def from_url(cls, url: str, pose: object = None, zoom: str = "") -> OpenCvCamera:
+        """The camera :func:`parse_source` reads from ``url``, with the lens's zoom line
+        ``zoom`` if named (``visca:///dev/ttyUSB1?max=30``); ``pose`` is for simulated
+        cameras, unused here."""
+        source, api, loop = parse_source(url)
+        return cls(source, api, loop=loop, zoom=ViscaZoom.from_url(zoom) if zoom else None)
+
     @property
     def resolution(self) -> tuple[int, int]:
         return self._size

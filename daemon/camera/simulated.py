@@ -23,7 +23,7 @@ from urllib.parse import parse_qs, urlsplit
 import cv2
 import numpy as np
 
-from ..pointing.geometry import CameraModel, pixel_to_angles
+from ..pointing.geometry import CameraModel, pixel_centre, pixel_index, pixel_to_angles
 from ..sim.scene import outcrop_scene
 from ..sim.world import World
 from ..vision.imageio import ImageError, as_bgr8, read_image
@@ -148,12 +148,12 @@ class SimulatedCamera(Camera):
         key = (pan, tilt, self.model.hfov)
         if self._maps is None or self._maps[0] != key:
             w, h = self.resolution
-            xs = np.arange(w, dtype=np.float64) + 0.5
-            ys = np.arange(h, dtype=np.float64) + 0.5
+            xs = pixel_centre(np.arange(w, dtype=np.float64))
+            ys = pixel_centre(np.arange(h, dtype=np.float64))
             a, b = pixel_to_angles(xs[None, :], ys[:, None], pan, tilt, self.model)
             if isinstance(self.panorama, Panorama):
                 px, py = self.panorama.to_pixel(a, b)
-                a, b = (px - 0.5).astype(np.float32), (py - 0.5).astype(np.float32)
+                a, b = pixel_index(px).astype(np.float32), pixel_index(py).astype(np.float32)
             self._maps = (key, a, b)
         return self._maps[1], self._maps[2]
 
@@ -161,7 +161,7 @@ class SimulatedCamera(Camera):
         """The noiseless view at (pan, tilt) degrees."""
         a, b = self._directions(pan, tilt)
         if isinstance(self.panorama, World):  # drawn at the detail this view resolves
-            return self.panorama.render(a, b, self.model.hfov / self.model.width)
+            return self.panorama.render(a, b, self.model.degrees_per_pixel)
         # Beyond the panorama the edge is smeared outwards: a mirror would duplicate targets.
         return cv2.remap(
             self.panorama.image, a, b, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
@@ -181,9 +181,10 @@ class SimulatedCamera(Camera):
         return image
 
     @classmethod
-    def from_url(cls, url: str, pose: PoseSource | None = None) -> SimulatedCamera:
+    def from_url(cls, url: str, pose: PoseSource | None = None, zoom: str = "") -> SimulatedCamera:
         """``sim://outcrop?seed=N``, ``sim://world?seed=N`` (:class:`daemon.world.World`,
-        detail at every range) or ``sim:///path/pano.png?pan=-45,45&tilt=-15,20``.
+        detail at every range) or ``sim:///path/pano.png?pan=-45,45&tilt=-15,20``; ``pose``
+        says where the PTU points, ``zoom`` is unused (this camera zooms itself).
 
         All take ``hfov`` (degrees), ``width``, ``height`` and ``noise`` (grey levels).
         """

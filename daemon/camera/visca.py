@@ -27,6 +27,7 @@ import os
 import time
 import tty
 from abc import ABC, abstractmethod
+from urllib.parse import parse_qs, urlsplit
 
 import serial
 import serial_asyncio_fast
@@ -110,6 +111,23 @@ class ViscaZoom(Zoom):
         self._reader: asyncio.StreamReader | None = None
         self._writer: asyncio.StreamWriter | None = None
         self._lock = asyncio.Lock()
+
+    @classmethod
+    def from_url(cls, url: str) -> ViscaZoom:
+        """``visca:///dev/ttyUSB1?max=30&baud=9600``: the port, the lens's longest zoom.
+
+        >>> ViscaZoom.from_url("visca:///dev/ttyUSB1?max=20").max_level
+        20.0
+        """
+        parts = urlsplit(url)
+        if parts.scheme != "visca" or not parts.path:
+            raise ValueError(f"zoom {url!r}: want visca:///dev/ttyUSB1?max=30")
+        query = parse_qs(parts.query)
+        return cls(
+            parts.path,
+            max_level=float(query.get("max", ["30"])[-1]),
+            baudrate=int(query.get("baud", ["9600"])[-1]),
+        )
 
     async def open(self) -> None:
         try:

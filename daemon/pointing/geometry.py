@@ -23,6 +23,8 @@ __all__ = [
     "MosaicGeometry",
     "angles_to_pixel",
     "degrees_to_positions",
+    "pixel_centre",
+    "pixel_index",
     "pixel_to_angles",
     "positions_to_degrees",
 ]
@@ -53,6 +55,26 @@ def degrees_to_positions(degrees: float, resolution: float) -> int:
     return round(degrees * 3600.0 / resolution)
 
 
+def pixel_centre(k):
+    """The continuous coordinate of pixel index ``k``'s centre: ``k + 0.5`` (scalars and
+    arrays alike).
+
+    >>> pixel_centre(0), pixel_centre(719)
+    (0.5, 719.5)
+    """
+    return k + 0.5
+
+
+def pixel_index(x):
+    """The inverse of :func:`pixel_centre`, ``x - 0.5``: continuous ``x`` where a pixel's
+    centre is its index, as OpenCV samples (``cv2.remap``) and ``result.json`` gives points.
+
+    >>> pixel_index(pixel_centre(7))
+    7.0
+    """
+    return x - 0.5
+
+
 @dataclass(frozen=True)
 class CameraModel:
     """A pinhole camera: image size in pixels and horizontal field of view in degrees."""
@@ -69,6 +91,12 @@ class CameraModel:
     @property
     def vfov(self) -> float:
         return math.degrees(2.0 * math.atan((self.height / 2.0) / self.focal))
+
+    @property
+    def degrees_per_pixel(self) -> float:
+        """``hfov / width``: the small-angle approximation, for sizes and spreads only
+        (pointing uses the exact mapping)."""
+        return self.hfov / self.width
 
     def scaled(self, factor: float) -> CameraModel:
         """The same optics seen through an image reduced ``factor`` times."""
@@ -233,6 +261,22 @@ class MosaicGeometry:
         pan, tilt = self.tile_pose(row, col)
         a, b = pixel_to_angles(x, y, pan, tilt, self.camera)
         return float(a), float(b)
+
+    def pixel_angles(self, x: float, y: float) -> tuple[float, float]:
+        """World (pan, tilt) of mosaic pixel (x, y) counted as the analysis counts them
+        (pixel k's centre at k, as in ``result.json``); :meth:`to_angles` puts it at k + 0.5.
+
+        >>> g = MosaicGeometry(CameraModel(720, 576, 30.0), 2, 3, downsample=4)
+        >>> g.pixel_angles(89.5, 71.5) == g.to_angles(90, 72)
+        True
+        """
+        return self.to_angles(pixel_centre(x), pixel_centre(y))
+
+    @property
+    def degrees_per_pixel(self) -> float:
+        """One mosaic pixel's width in degrees, the small-angle way (for sizes, not
+        pointing)."""
+        return self.camera.scaled(self.downsample).degrees_per_pixel
 
     def to_mosaic(self, pan_w: float, tilt_w: float) -> tuple[float, float] | None:
         """Mosaic pixel where a world direction appears, or ``None`` if no tile saw it."""

@@ -2,21 +2,27 @@
 
 ======================================  ===================================================
 ``serial:///dev/ttyUSB0?baud=9600``     a real PTU-46 on a serial port (or a bare path)
+``tcp://10.0.0.7:4000``                 a PTU-E46 or a terminal server (``socket://``,
+                                        ``rfc2217://`` as pyserial takes them)
 ``pty://?model=D46-17&time_scale=10``   the emulator on a pseudo-terminal, real serial driver
 ``emu://?model=D46-17&time_scale=10``   the emulator in-process, for fast logic tests
 ======================================  ===================================================
 
 ``pty://`` also takes ``fault=drop:PP:2`` (repeatable, see :func:`ptyserver.parse_fault`)
 ``banner=1`` and ``baud=0`` (no pacing; default 9600 like the real line).
+
+A backend is a :class:`PanTiltUnit` with a ``from_url(url)`` class method, named by a row
+of :data:`BACKENDS` and imported when a URL first asks for it: a new vendor is one module
+and one row.
 """
 
 from __future__ import annotations
 
-from urllib.parse import parse_qs, urlsplit
+import importlib
+from typing import TYPE_CHECKING, Any
+from urllib.parse import urlsplit
 
 from .base import AxisInfo, LinkState, PanTiltUnit, PtuInfo, PtuPosition
-from .emulated import EmulatedPtu, PtyPtu
-from .emulator import Ptu46Emulator
 from .errors import (
     PtuCommandError,
     PtuConnectionError,
@@ -27,11 +33,15 @@ from .errors import (
     PtuSpeedError,
     PtuTimeoutError,
 )
-from .models import MODELS
-from .ptyserver import BANNER, parse_fault
-from .serial import SerialPtu
+
+if TYPE_CHECKING:
+    from .emulated import EmulatedPtu, PtyPtu
+    from .ptyserver import BANNER
+    from .serial import SerialPtu
 
 __all__ = [
+    "BACKENDS",
+    "BANNER",
     "AxisInfo",
     "EmulatedPtu",
     "LinkState",
@@ -51,12 +61,30 @@ __all__ = [
     "open_ptu",
 ]
 
+BACKENDS: dict[str, str] = {
+    "": ".serial:SerialPtu",
+    "serial": ".serial:SerialPtu",
+    "tcp": ".serial:SerialPtu",
+    "socket": ".serial:SerialPtu",
+    "rfc2217": ".serial:SerialPtu",
+    "pty": ".emulated:PtyPtu",
+    "emu": ".emulated:EmulatedPtu",
+}
+"""URL scheme -> ``module:class`` of its backend (relative to this package)."""
 
-def _emulator(query: dict[str, list[str]]) -> Ptu46Emulator:
-    name = query.get("model", ["D46-17"])[-1]
-    if name not in MODELS:
-        raise ValueError(f"unknown PTU model {name!r}; known: {', '.join(MODELS)}")
-    return Ptu46Emulator(MODELS[name], time_scale=float(query.get("time_scale", ["1"])[-1]))
+_LAZY = {
+    "BANNER": ".ptyserver",
+    "EmulatedPtu": ".emulated",
+    "PtyPtu": ".emulated",
+    "SerialPtu": ".serial",
+}
+"""Backends are imported when first used: a rig on a real unit never loads the emulator."""
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name], __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def open_ptu(url: str) -> PanTiltUnit:
@@ -67,24 +95,9 @@ def open_ptu(url: str) -> PanTiltUnit:
     >>> open_ptu("tcp://10.0.0.7:4000").port, open_ptu("rfc2217://ts:7001").port
     ('socket://10.0.0.7:4000', 'rfc2217://ts:7001')
     """
-    parts = urlsplit(url)
-    query = parse_qs(parts.query)
-    if parts.scheme in ("", "serial"):
-        port = parts.path if parts.scheme else url
-        if not port:
-            raise ValueError(f"no serial port in {url!r}")
-        return SerialPtu(port, int(query.get("baud", ["9600"])[-1]))
-    if parts.scheme == "tcp":  # a PTU-E46 or a terminal server: pyserial's socket://
-        if not parts.port:
-            raise ValueError(f"no host:port in {url!r}")
-        return SerialPtu(f"socket://{parts.netloc}")
-    if parts.scheme in ("socket", "rfc2217"):
-        return SerialPtu(url, int(query.get("baud", ["9600"])[-1]))
-    if parts.scheme == "emu":
-        return EmulatedPtu(_emulator(query))
-    if parts.scheme == "pty":
-        faults = [parse_fault(spec) for spec in query.get("fault", [])]
-        banner = BANNER if query.get("banner", ["0"])[-1] not in ("0", "") else None
-        baud = int(query.get("baud", ["9600"])[-1])
-        return PtyPtu(_emulator(query), faults=faults, banner=banner, baud=baud)
-    raise ValueError(f"unknown PTU URL scheme {parts.scheme!r} in {url!r}")
+    scheme = urlsplit(url).scheme
+    if scheme not in BACKENDS:
+        raise ValueError(f"unknown PTU URL scheme {scheme!r} in {url!r}")
+    module, _, name = BACKENDS[scheme].partition(":")
+    backend = getattr(importlib.import_module(module, __name__), name)
+    return backend.from_url(url)

@@ -5,12 +5,14 @@ from __future__ import annotations
 import asyncio
 import tempfile
 from pathlib import Path
+from urllib.parse import parse_qs, urlsplit
 
 from .base import LinkState
 from .commanded import CommandedPtu
 from .emulator import Ptu46Emulator
 from .errors import PtuConnectionError, PtuTimeoutError
-from .ptyserver import Fault, PtyEmulatorServer
+from .models import MODELS
+from .ptyserver import BANNER, Fault, PtyEmulatorServer, parse_fault
 from .serial import SerialPtu
 from .tcpserver import TcpLineServer
 from .wire import LineFramer, Reply, format_command, match_reply
@@ -18,6 +20,14 @@ from .wire import LineFramer, Reply, format_command, match_reply
 __all__ = ["EmulatedPtu", "PtyPtu", "TcpPtu"]
 
 _POLL = 0.002
+
+
+def _emulator(query: dict[str, list[str]]) -> Ptu46Emulator:
+    """The emulator a URL's query asks for: ``model`` (default D46-17), ``time_scale``."""
+    name = query.get("model", ["D46-17"])[-1]
+    if name not in MODELS:
+        raise ValueError(f"unknown PTU model {name!r}; known: {', '.join(MODELS)}")
+    return Ptu46Emulator(MODELS[name], time_scale=float(query.get("time_scale", ["1"])[-1]))
 
 
 class EmulatedPtu(CommandedPtu):
@@ -28,6 +38,11 @@ class EmulatedPtu(CommandedPtu):
         self.emulator = emulator or Ptu46Emulator()
         self._lock = asyncio.Lock()
         self._framer = LineFramer()
+
+    @classmethod
+    def from_url(cls, url: str) -> EmulatedPtu:
+        """``emu://?model=D46-17&time_scale=10``."""
+        return cls(_emulator(parse_qs(urlsplit(url).query)))
 
     async def open(self) -> None:
         self._state = LinkState.CONNECTING
@@ -87,6 +102,17 @@ class PtyPtu(SerialPtu):
             emulator or Ptu46Emulator(), link=link, faults=faults, banner=banner, baud=baud
         )
         super().__init__(str(link), **serial_options)  # type: ignore[arg-type]
+
+    @classmethod
+    def from_url(cls, url: str) -> PtyPtu:
+        """``pty://?model=D46-17&time_scale=10``, also ``fault=drop:PP:2`` (repeatable, see
+        :func:`~daemon.ptu.ptyserver.parse_fault`), ``banner=1`` and ``baud=0`` (no pacing;
+        default 9600 like the real line)."""
+        query = parse_qs(urlsplit(url).query)
+        faults = [parse_fault(spec) for spec in query.get("fault", [])]
+        banner = BANNER if query.get("banner", ["0"])[-1] not in ("0", "") else None
+        baud = int(query.get("baud", ["9600"])[-1])
+        return cls(_emulator(query), faults=faults, banner=banner, baud=baud)
 
     async def open(self) -> None:
         if not self.server.connected:

@@ -28,6 +28,7 @@ import contextlib
 import itertools
 import logging
 import random
+from urllib.parse import parse_qs, urlsplit
 
 import serial
 import serial_asyncio_fast
@@ -92,6 +93,25 @@ class SerialPtu(CommandedPtu):
         self.resyncs = 0
         self.retried = 0
         """Commands sent again after a lost reply (each one logged)."""
+
+    @classmethod
+    def from_url(cls, url: str) -> SerialPtu:
+        """``serial:///dev/ttyUSB0?baud=9600`` or a bare path; ``tcp://host:port`` (a PTU-E46
+        or a terminal server, pyserial's ``socket://``); ``socket://`` and ``rfc2217://`` as
+        pyserial takes them.
+
+        >>> SerialPtu.from_url("/dev/ttyUSB0").port, SerialPtu.from_url("tcp://ts:4000").port
+        ('/dev/ttyUSB0', 'socket://ts:4000')
+        """
+        parts = urlsplit(url)
+        if parts.scheme == "tcp":
+            if not parts.port:
+                raise ValueError(f"no host:port in {url!r}")
+            return cls(f"socket://{parts.netloc}")
+        port = url if parts.scheme in ("", "socket", "rfc2217") else parts.path
+        if not port:
+            raise ValueError(f"no serial port in {url!r}")
+        return cls(port, int(parse_qs(parts.query).get("baud", ["9600"])[-1]))
 
     # -- lifecycle -----------------------------------------------------------------------
 

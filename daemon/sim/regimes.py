@@ -14,48 +14,34 @@ detectors, and ``bench/quality.py`` reports them separately:
   among 2-4 ledge shadows: rare and thin, where the shadows are long and thick;
 * ``empty``: beds and 2-4 ledge shadows, no target: where does the best point go then?
 
-:func:`through_camera` shows any of them as an ordinary camera delivers a frame
+``camera_effects.through_camera`` shows any of them as an ordinary camera delivers a frame
 (vignetting, a light gradient, slight defocus, JPEG), for ``bench/quality.py --camera``.
 
 Every scene keeps the quasi-mosaic look (butted tiles with their own exposure, sensor
 noise) and fills ``targets``, ``target_labels`` and ``shadow_mask`` (the decoys). Targets are
-placed first and decoys kept clear of them, so a point is never on both. Bed rendering,
-painting and blob shapes come from ``daemon.scene``; the one variant needed here (beds from
-a chosen palette, returning their texture) is :func:`_beds`, used by every regime.
+placed first and decoys kept clear of them, so a point is never on both. Painting and blob
+shapes come from ``scene``; beds from a chosen palette (returning their texture), ledge
+shadows and the quasi-mosaic finish, which every regime shares, from ``draw``.
 """
 
 from __future__ import annotations
 
-import dataclasses
-from collections.abc import Callable, Collection
+from collections.abc import Callable
 
 import cv2
 import numpy as np
 
-from cyborg.daemon.sim.scene import (
-    _ROCKS,
-    SKY_SHADE,
-    Scene,
-    Target,
-    _blob,
-    _noise,
-    _paint_target,
-    outcrop_scene,
-)
+from .draw import beds, clearance, darken, finish, grow, label_image, ledge_shadows
+from .scene import _ROCKS, Scene, Target, _blob, _noise, _paint_target, outcrop_scene
 
 __all__ = [
-    "CAMERA_EFFECTS",
     "DESCRIPTIONS",
-    "JPEG_QUALITY",
     "LARGE_KINDS",
     "REGIMES",
     "VEIN_KINDS",
     "empty_scene",
-    "jpeg_quality",
-    "jpeg_round_trip",
     "large_scene",
     "seed_cliff",
-    "through_camera",
     "vein_scene",
 ]
 
@@ -84,132 +70,6 @@ _DARK_ROCKS = np.array(
 # Beds of ``_ROCKS`` a large target must not share its colour with, or it would not be rare:
 # no red sandstone around a red-bed lens, no gypsum or pale buff around a gypsum lens.
 _LARGE_EXCLUDES = {"red_lens": (1,), "gypsum_lens": (3, 6)}
-_SKY = np.array([225, 190, 150], np.float32)
-
-
-def _scale(shape: tuple[int, int]) -> float:
-    """Length scale relative to the 216x288 reference mosaic, as ``outcrop_scene`` uses."""
-    return min(shape[0] / 216.0, shape[1] / 288.0)
-
-
-def _beds(
-    rng: np.random.Generator,
-    shape: tuple[int, int],
-    palette: np.ndarray,
-    n_beds: int,
-    *,
-    sky: int = 0,
-    grain: float = 0.07,
-    lamination: float = 0.03,
-    jitter: float = 0.1,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Layered beds as ``outcrop_scene`` draws them, from a chosen palette.
-
-    Contacts undulate and dip; each bed gets its own colour, lamination and grain. The
-    regimes need other palettes (pale gypsum, dark host rock, no bed sharing a large
-    target's colour) and the grain field, to texture large targets like the rock around
-    them. ``sky`` rows at the top are sky. Each channel of a bed's colour varies by up to
-    ``jitter`` (relative); pale beds need less, or they turn pink and green. Returns the
-    float32 BGR image and the grain.
-    """
-    rows, cols = shape
-    scale = _scale(shape)
-    img = np.zeros((rows, cols, 3), np.float32)
-    xs = np.arange(cols, dtype=np.float32)
-    yy = np.arange(rows, dtype=np.float32)[:, None]
-    colours = palette[rng.choice(len(palette), n_beds, replace=True)]
-    cuts = np.sort(rng.uniform(sky, rows, n_beds - 1))
-    dip = rng.uniform(-0.08, 0.08)
-    bed = np.zeros(shape, np.int32)
-    for c in cuts:
-        period = rng.uniform(60, 200) * scale
-        wave = c + dip * (xs - cols / 2)
-        wave += rng.uniform(2, 6) * scale * np.sin(2 * np.pi * xs / period + rng.uniform(0, 6.3))
-        bed += (yy > wave[None, :]).astype(np.int32)
-    texture = _noise(rng, shape, (0.0, 1.5 * scale, 6.0 * scale))
-    laminae = np.sin(yy * rng.uniform(0.6, 1.4) / scale + 0.3 * texture)
-    for k in range(n_beds):
-        m = bed == k
-        colour = colours[k] * rng.uniform(1 - jitter, 1 + jitter, 3)
-        img[m] = colour[None, :] * (1.0 + grain * texture[m] + lamination * laminae[m])[:, None]
-    if sky:
-        img[:sky] = _SKY * np.linspace(1.0, 0.8, sky, dtype=np.float32)[:, None, None]
-    return img, texture
-
-
-def _ledge_shadows(
-    rng: np.random.Generator,
-    shape: tuple[int, int],
-    count: int,
-    top: int,
-    avoid: np.ndarray,
-    *,
-    length: tuple[float, float] = (25.0, 70.0),
-) -> np.ndarray:
-    """Masks of ``count`` ledge shadows (elongated ellipses, sizes as ``outcrop_scene``'s)
-    below row ``top``, each clear of ``avoid``: a decoy must not cover a target, or a point
-    would be both a hit and a decoy."""
-    rows, cols = shape
-    scale = _scale(shape)
-    shadow = np.zeros(shape, bool)
-    placed = 0
-    for _ in range(50 * count):
-        if placed == count:
-            break
-        cy = rng.uniform(top + 10 * scale, rows - 5 * scale)
-        cx = rng.uniform(0, cols)
-        axes = (int(rng.uniform(*length) * scale), max(2, int(rng.uniform(4, 10) * scale)))
-        m = np.zeros(shape, np.uint8)
-        cv2.ellipse(m, (int(cx), int(cy)), axes, rng.uniform(-10, 10), 0, 360, 1, -1)
-        if (m.astype(bool) & avoid).any():
-            continue
-        shadow |= m.astype(bool)
-        placed += 1
-    return shadow
-
-
-def _darken(img: np.ndarray, shadow: np.ndarray, factor: float) -> None:
-    """Shade like ``outcrop_scene``: dark and slightly blue, lit by the sky only."""
-    img[shadow] *= SKY_SHADE * factor
-
-
-def _finish(
-    rng: np.random.Generator,
-    img: np.ndarray,
-    tiles: tuple[int, int] = (3, 4),
-    exposure: float = 0.05,
-    noise: float = 3.0,
-) -> np.ndarray:
-    """Quasi-mosaic look: each butted tile gets its own exposure, then sensor noise."""
-    rows, cols = img.shape[:2]
-    trows, tcols = tiles
-    for i in range(trows):
-        for j in range(tcols):
-            r0, r1 = i * rows // trows, (i + 1) * rows // trows
-            c0, c1 = j * cols // tcols, (j + 1) * cols // tcols
-            img[r0:r1, c0:c1] *= rng.uniform(1 - exposure, 1 + exposure)
-    img += rng.normal(0.0, noise, img.shape).astype(np.float32)
-    return np.clip(img, 0, 255).astype(np.uint8)
-
-
-def _grow(mask: np.ndarray, pixels: float) -> np.ndarray:
-    """``mask`` dilated by a disc of radius ``pixels``: the clearance kept between objects."""
-    size = 2 * round(pixels) + 1
-    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
-    return cv2.dilate(mask.astype(np.uint8), kernel).astype(bool)
-
-
-def _clearance(shape: tuple[int, int]) -> float:
-    """Gap kept between a target and anything else: more than the bench's hit tolerance
-    (6 px at 216x288, scaled with the diagonal), so each point hits one object at most."""
-    return 8.0 * float(np.hypot(*shape)) / 360.0
-
-
-def _labels(shape: tuple[int, int], masks: list[np.ndarray]) -> np.ndarray:
-    labels = np.zeros(shape, np.uint8)
-    for i, m in enumerate(masks):
-        labels[m & (labels == 0)] = i + 1
-    return labels
 
 
 def seed_cliff(seed: int, shadow: bool = True) -> Scene:
@@ -232,8 +92,8 @@ def seed_cliff(seed: int, shadow: bool = True) -> Scene:
     rng = np.random.default_rng([seed, 1])
     shape = rows, cols = (108, 192)
     n_beds = int(rng.integers(6, 10))
-    img, _ = _beds(rng, shape, _PALE_ROCKS, n_beds, lamination=0.05, jitter=0.03)
-    gap = _clearance(shape)
+    img, _ = beds(rng, shape, _PALE_ROCKS, n_beds, lamination=0.05, jitter=0.03)
+    gap = clearance(shape)
     masks: list[np.ndarray] = []
     targets: list[Target] = []
     for _ in range(200):
@@ -242,20 +102,20 @@ def seed_cliff(seed: int, shadow: bool = True) -> Scene:
         r = float(np.sqrt(rng.uniform(0.012, 0.018) * rows * cols / np.pi))
         cx, cy = rng.uniform(1.4 * r, cols - 1.4 * r), rng.uniform(1.4 * r, rows - 1.4 * r)
         m = _blob(rng, shape, cx, cy, r)
-        if not 0.01 <= m.mean() <= 0.02 or any((m & _grow(o, gap)).any() for o in masks):
+        if not 0.01 <= m.mean() <= 0.02 or any((m & grow(o, gap)).any() for o in masks):
             continue
         masks.append(m)
         targets.append(Target("wet_stain", float(cx), float(cy), r))
-    avoid = _grow(np.logical_or.reduce(masks), gap)
-    ledge = _ledge_shadows(rng, shape, 1, 0, avoid, length=(40.0, 90.0))
+    avoid = grow(np.logical_or.reduce(masks), gap)
+    ledge = ledge_shadows(rng, shape, 1, 0, avoid, length=(40.0, 90.0))
     for m in masks:
         _paint_target(rng, img, "wet_stain", m)
     factor = rng.uniform(0.8, 1.1)  # drawn either way, so the cliff does not change
     if not shadow:
         ledge[:] = False
-    _darken(img, ledge, factor)
-    out = _finish(rng, img, exposure=0.06)
-    return Scene(out, tuple(targets), _labels(shape, masks), ledge, seed)
+    darken(img, ledge, factor)
+    out = finish(rng, img, exposure=0.06)
+    return Scene(out, tuple(targets), label_image(shape, masks), ledge, seed)
 
 
 def _lens(
@@ -321,8 +181,8 @@ def large_scene(seed: int) -> Scene:
     excluded = {i for k in kinds for i in _LARGE_EXCLUDES.get(k, ())}
     palette = _ROCKS[[i for i in range(len(_ROCKS)) if i not in excluded]]
     sky = int(rng.uniform(0.08, 0.22) * rows) if rng.random() < 0.5 else 0
-    img, texture = _beds(rng, shape, palette, int(rng.integers(4, 8)), sky=sky)
-    gap = _clearance(shape)
+    img, texture = beds(rng, shape, palette, int(rng.integers(4, 8)), sky=sky)
+    gap = clearance(shape)
     masks: list[np.ndarray] = []
     targets: list[Target] = []
     for _ in range(300):
@@ -345,17 +205,17 @@ def large_scene(seed: int) -> Scene:
             continue
         if xs.min() == 0 or xs.max() == cols - 1:
             continue
-        if any((m & _grow(o, gap)).any() for o in masks):
+        if any((m & grow(o, gap)).any() for o in masks):
             continue
         masks.append(m)
         targets.append(Target(kind, float(xs.mean()), float(ys.mean()), reach))
-    avoid = _grow(np.logical_or.reduce(masks), gap)
-    shadow = _ledge_shadows(rng, shape, int(rng.integers(2, 5)), sky, avoid)
+    avoid = grow(np.logical_or.reduce(masks), gap)
+    shadow = ledge_shadows(rng, shape, int(rng.integers(2, 5)), sky, avoid)
     for kind, m in zip(kinds[: len(masks)], masks, strict=True):
         _paint_large(rng, img, kind, m, texture)
-    _darken(img, shadow, rng.uniform(0.8, 1.1))
-    out = _finish(rng, img)
-    return Scene(out, tuple(targets), _labels(shape, masks), shadow, seed)
+    darken(img, shadow, rng.uniform(0.8, 1.1))
+    out = finish(rng, img)
+    return Scene(out, tuple(targets), label_image(shape, masks), shadow, seed)
 
 
 def _curve(
@@ -408,9 +268,9 @@ def vein_scene(seed: int) -> Scene:
     """
     rng = np.random.default_rng([seed, 3])
     shape = (216, 288)
-    img, _ = _beds(rng, shape, _DARK_ROCKS, int(rng.integers(3, 7)))
+    img, _ = beds(rng, shape, _DARK_ROCKS, int(rng.integers(3, 7)))
     count = int(rng.integers(1, 3))
-    gap = _clearance(shape)
+    gap = clearance(shape)
     masks: list[np.ndarray] = []
     covers: list[np.ndarray] = []
     targets: list[Target] = []
@@ -426,15 +286,15 @@ def vein_scene(seed: int) -> Scene:
         widths = np.clip(width * (1 + 0.15 * np.sin(along)), 1.5, 3.0)
         cover = _stroke(shape, pts, widths)
         m = cover >= 0.5
-        if any((m & _grow(o, gap)).any() for o in masks):
+        if any((m & grow(o, gap)).any() for o in masks):
             continue
         kind = VEIN_KINDS[int(rng.choice(len(VEIN_KINDS), p=[0.5, 0.3, 0.2]))]
         mid = pts[len(pts) // 2]
         masks.append(m)
         covers.append(cover)
         targets.append(Target(kind, float(mid[0]), float(mid[1]), float(length / 2)))
-    avoid = _grow(np.logical_or.reduce(masks), gap)
-    shadow = _ledge_shadows(rng, shape, int(rng.integers(2, 5)), 0, avoid)
+    avoid = grow(np.logical_or.reduce(masks), gap)
+    shadow = ledge_shadows(rng, shape, int(rng.integers(2, 5)), 0, avoid)
     for t, cover in zip(targets, covers, strict=True):
         alpha = cover[..., None]
         if t.kind == "white_vein":
@@ -444,9 +304,9 @@ def vein_scene(seed: int) -> Scene:
         else:  # dark_crack
             paint = img * rng.uniform(0.25, 0.35)
         img[:] = img * (1 - alpha) + paint * alpha
-    _darken(img, shadow, rng.uniform(0.8, 1.1))
-    out = _finish(rng, img)
-    return Scene(out, tuple(targets), _labels(shape, masks), shadow, seed)
+    darken(img, shadow, rng.uniform(0.8, 1.1))
+    out = finish(rng, img)
+    return Scene(out, tuple(targets), label_image(shape, masks), shadow, seed)
 
 
 def empty_scene(seed: int) -> Scene:
@@ -463,115 +323,6 @@ def empty_scene(seed: int) -> Scene:
     ((), 0, True)
     """
     return outcrop_scene(seed, n_targets=0)
-
-
-CAMERA_EFFECTS = ("vignetting", "gradient", "defocus", "jpeg")
-"""What :func:`through_camera` can do to a scene, in the order it does it."""
-JPEG_QUALITY = (60, 90)
-"""The JPEG quality range of :func:`through_camera`: a phone's or a rover's frames, not a
-lossless archive."""
-
-
-def jpeg_quality(quality: int) -> int:
-    """``quality`` if it is a JPEG quality (1..100), else ValueError (OpenCV would clamp it
-    silently)."""
-    if not 1 <= quality <= 100:
-        raise ValueError(f"JPEG quality is 1..100, got {quality}")
-    return int(quality)
-
-
-def jpeg_round_trip(image: np.ndarray, quality: int) -> np.ndarray:
-    """``image`` (uint8, grey or BGR) as a camera's JPEG at ``quality`` delivers it, decoded
-    again: 8-px blocks and, in colour, chroma at half resolution (4:2:0, as OpenCV writes
-    it). Grey stays grey.
-
-    >>> grey = np.tile(np.arange(64, dtype=np.uint8), (16, 1))
-    >>> out = jpeg_round_trip(grey, 60)
-    >>> out.shape, out.dtype.name, 0 < int(np.abs(out.astype(int) - grey).max()) < 16
-    ((16, 64), 'uint8', True)
-    >>> jpeg_round_trip(grey, 0)
-    Traceback (most recent call last):
-    ...
-    ValueError: JPEG quality is 1..100, got 0
-    """
-    ok, buf = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, jpeg_quality(quality)])
-    if not ok:  # pragma: no cover - OpenCV always encodes a uint8 grey or BGR array
-        raise RuntimeError("JPEG encoding failed")
-    return cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)
-
-
-def through_camera(
-    scene: Scene, effects: Collection[str] = CAMERA_EFFECTS, scale: float = 1.0
-) -> Scene:
-    """``scene`` as an ordinary camera delivers it: vignetting (15-35 % darker in the
-    corners), a light gradient across the view (10-25 % over half the diagonal, any
-    direction), slight defocus (Gaussian sigma 0.5-1.2 px) and JPEG at quality 60-90
-    (chroma subsampled 4:2:0, as OpenCV writes it); ``effects`` names which. The scenes are
-    otherwise rendered perfectly; a detector tuned on them alone may lean on what no real
-    camera keeps.
-
-    The camera is drawn from the scene's seed, whatever the effects, so two noisy looks at
-    one scene go through the same camera and one effect alone is the one of the whole
-    camera. Targets, labels and decoys are unchanged.
-
-    ``scale`` > 1 is a camera whose frame is that many times finer on a side than what is
-    analysed, as the rig's mosaics and a phone's photos are (``products.analyze_image``
-    reduces them to its working size): the scene is rendered up (cubic), goes through the
-    camera there (defocus in the camera's pixels) and is reduced back by area averaging.
-    JPEG's blocks and its half-resolution colour then shrink by ``scale`` too.
-
-    Examples
-    --------
-    >>> s = empty_scene(0)
-    >>> c = through_camera(s)
-    >>> c.image.shape == s.image.shape, c.image.dtype.name, bool((c.image != s.image).any())
-    (True, 'uint8', True)
-    >>> bool((through_camera(s).image == c.image).all())   # deterministic by seed
-    True
-    >>> bool((through_camera(s, ()).image == s.image).all())
-    True
-    >>> through_camera(s, ("fisheye",))
-    Traceback (most recent call last):
-    ...
-    ValueError: unknown camera effects ['fisheye']; choose from vignetting, gradient, defocus, jpeg
-    >>> through_camera(s, ("jpeg",), scale=2.0).image.shape == s.image.shape
-    True
-    """
-    unknown = sorted(set(effects) - set(CAMERA_EFFECTS))
-    if unknown:
-        raise ValueError(
-            f"unknown camera effects {unknown}; choose from {', '.join(CAMERA_EFFECTS)}"
-        )
-    if not scale >= 1.0:  # also refuses NaN
-        raise ValueError(
-            f"a camera's scale is >= 1 (its frame over the analysed size), got {scale}"
-        )
-    rng = np.random.default_rng([scene.seed, 4])
-    corner = rng.uniform(0.15, 0.35)
-    angle, slope = rng.uniform(0.0, 2.0 * np.pi), rng.uniform(0.10, 0.25)
-    sigma = rng.uniform(0.5, 1.2)
-    quality = int(rng.integers(JPEG_QUALITY[0], JPEG_QUALITY[1] + 1))
-    rows, cols = scene.image.shape[:2]
-    img = scene.image.astype(np.float32)
-    if scale > 1.0 and effects:
-        size = (round(cols * scale), round(rows * scale))
-        img = cv2.resize(img, size, interpolation=cv2.INTER_CUBIC)
-    rows, cols = img.shape[:2]
-    yy, xx = np.mgrid[0:rows, 0:cols].astype(np.float32)
-    dx, dy = xx - (cols - 1) / 2.0, yy - (rows - 1) / 2.0
-    half_diagonal = 0.5 * float(np.hypot(rows, cols))
-    if "vignetting" in effects:
-        img *= (1.0 - corner * (dx * dx + dy * dy) / half_diagonal**2)[..., None]
-    if "gradient" in effects:
-        img *= (1.0 + slope * (dx * np.cos(angle) + dy * np.sin(angle)) / half_diagonal)[..., None]
-    if "defocus" in effects:
-        img = cv2.GaussianBlur(img, (0, 0), sigma)
-    out = np.clip(img, 0, 255).astype(np.uint8)
-    if "jpeg" in effects:
-        out = jpeg_round_trip(out, quality)
-    if out.shape != scene.image.shape:
-        out = cv2.resize(out, scene.image.shape[1::-1], interpolation=cv2.INTER_AREA)
-    return dataclasses.replace(scene, image=out)
 
 
 REGIMES: dict[str, Callable[[int], Scene]] = {

@@ -15,12 +15,17 @@ what was judged common from afar is de-emphasised and the target's surroundings 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import Any
 
 import cv2
 import numpy as np
 
-from ..pointing.geometry import MosaicGeometry
+from cyborg.protocol.messages import InterestPoint
+
+from ..archive import Archive, ArchiveError
+from ..pointing.geometry import MosaicGeometry, pixel_centre
+from .approach import Previous
 from .register import carry
 
 __all__ = ["NEW_DE", "SessionMemory", "phrase", "station_prior"]
@@ -77,6 +82,55 @@ class SessionMemory:
     def palettes(self) -> list[np.ndarray]:
         """The earlier stations' palettes, (PALETTE, 3) Lab each, oldest first."""
         return [palette for _, palette in self.stations]
+
+    def recall(
+        self, points: list[InterestPoint], radii: dict[int, float], mosaic: np.ndarray
+    ) -> list[InterestPoint]:
+        """Each point (of pixel radius ``radii[rank]``) against what the session's earlier
+        stations showed: its novelty, and a clause for its explanation ("new since
+        st01-300m" or "seen at st02-60m")."""
+        if not self.stations:
+            return points
+        first = self.stations[0][0]
+        out = []
+        for p in points:
+            found = self.novelty(mosaic, p.x, p.y, radii.get(p.rank, 4.0))
+            why = "; ".join(part for part in (p.why, phrase(found, first)) if part)
+            out.append(replace(p, why=why, novelty=round(found[0], 2) if found else None))
+        return out
+
+    def prior(
+        self,
+        previous: Previous | None,
+        archive: Archive,
+        geometry: MosaicGeometry,
+        mosaic: np.ndarray,
+        weight: float,
+    ) -> tuple[np.ndarray | None, dict[str, Any] | None]:
+        """The weights the station this one was aimed from puts on its interest
+        (:func:`station_prior`, ``survey.memory`` = ``weight``) and the manifest's ``memory``
+        record. No prior for a first station or with the option off (and no record), nor
+        when the earlier interest cannot be read (the record says why)."""
+        if weight <= 0 or previous is None:
+            return None, None
+        try:
+            interest = previous.image(
+                archive, "analysis/interest.png", cv2.IMREAD_GRAYSCALE, "interest map"
+            )
+            prior = station_prior(
+                interest,
+                previous.geometry(archive),
+                geometry,
+                target=previous.target,
+                radius_deg=previous.radius_deg,
+                walk=previous.walk,
+                weight=weight,
+                mosaic=mosaic,
+                palettes=self.palettes(),
+            )
+        except (ArchiveError, cv2.error, ValueError) as exc:
+            return None, {"from": previous.station, "note": f"no prior: {exc}"}
+        return prior, {"from": previous.station, "weight": weight}
 
     def clear(self) -> None:
         self.stations.clear()
@@ -146,9 +200,10 @@ def station_prior(
     near = np.zeros_like(judged)
     centre = new_geo.to_mosaic(*target)
     if centre is not None:
-        deg_per_px = new_geo.camera.hfov / new_geo.tile_size[0] / scale
+        deg_per_px = new_geo.degrees_per_pixel / scale
         sigma = max(_NEAR * radius_deg * walk / deg_per_px, 1.0)
         ys, xs = np.mgrid[0 : size[1], 0 : size[0]]
-        dist2 = (xs + 0.5 - centre[0] * scale) ** 2 + (ys + 0.5 - centre[1] * scale) ** 2
+        dx, dy = pixel_centre(xs) - centre[0] * scale, pixel_centre(ys) - centre[1] * scale
+        dist2 = dx**2 + dy**2
         near = np.exp(-dist2 / (2.0 * sigma * sigma))
     return ((1.0 - weight) + weight * np.maximum(near, _ELSEWHERE * judged)).astype(np.float32)

@@ -21,9 +21,11 @@ from typing import Any
 import cv2
 import numpy as np
 
-from ..pointing.geometry import MosaicGeometry
+from ..archive import Archive, ArchiveError
+from ..pointing.geometry import MosaicGeometry, pixel_centre
+from .approach import Previous
 
-__all__ = ["carry", "register"]
+__all__ = ["carry", "register", "register_to"]
 
 _WORK = 256
 """Longest side of the copies registered (coarse structure is what carries across)."""
@@ -48,7 +50,7 @@ def carry(
     plane = old.astype(np.float32, copy=False)
     for y in range(h):
         for x in range(w):
-            pan, tilt = new_geo.to_angles((x + 0.5) * sx, (y + 0.5) * sy)
+            pan, tilt = new_geo.to_angles(pixel_centre(x) * sx, pixel_centre(y) * sy)
             pan = target[0] + (pan - target[0]) / walk
             tilt = target[1] + (tilt - target[1]) / walk
             seen = old_geo.to_mosaic(pan, tilt)
@@ -101,7 +103,7 @@ def register(
         record["note"] = "image registration did not converge; the prediction stands"
         return record
     shift = (float(warp[0, 2]) / scale, float(warp[1, 2]) / scale)
-    deg_per_px = new_geo.camera.hfov / new_geo.tile_size[0]
+    deg_per_px = new_geo.degrees_per_pixel
     record.update(
         shift_px=[round(shift[0], 2), round(shift[1], 2)],
         shift_deg=round(math.hypot(*shift) * deg_per_px, 4),
@@ -109,3 +111,19 @@ def register(
         correlation=round(float(rho), 4),
     )
     return record
+
+
+def register_to(
+    previous: Previous, archive: Archive, mosaic: np.ndarray, geometry: MosaicGeometry
+) -> dict[str, Any]:
+    """The manifest's ``registration`` of a station (``mosaic`` shot as ``geometry``) to the
+    one it was aimed from, residual included; a failure is noted in it, not raised."""
+    try:
+        old_geo = previous.geometry(archive)
+        old = previous.image(archive, "mosaic.png", cv2.IMREAD_COLOR, "mosaic")
+        record = register(
+            old, old_geo, mosaic, geometry, target=previous.target, walk=previous.walk
+        )
+    except (ArchiveError, cv2.error, ValueError) as exc:
+        record = {"note": f"not registered: {exc}"}
+    return {"from": previous.station, **record}

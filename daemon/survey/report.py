@@ -12,9 +12,11 @@ with colour bars, and the timings.
 
 from __future__ import annotations
 
+import asyncio
 import base64
 import html
 import json
+import logging
 import math
 import time
 from pathlib import Path
@@ -23,10 +25,12 @@ from typing import Any
 import cv2
 import numpy as np
 
-from ..archive import MANIFEST
+from ..archive import MANIFEST, Station
 from ..vision.imageio import encode_image, write_atomic
 
-__all__ = ["FILENAME", "render_report", "write_report"]
+__all__ = ["FILENAME", "render_report", "update_report", "write_report"]
+
+_LOGGER = logging.getLogger(__name__)
 
 FILENAME = "report.html"
 THUMB = 900
@@ -53,6 +57,15 @@ def write_report(session_dir: Path) -> Path:
     path = session_dir / FILENAME
     write_atomic(path, page.encode())
     return path
+
+
+async def update_report(station: Station) -> None:
+    """Rewrite the report of ``station``'s session, off the event loop; a report that cannot
+    be written (a full disk) is logged and costs the station nothing."""
+    try:
+        await asyncio.to_thread(write_report, station.folder.parent)
+    except (OSError, ValueError, cv2.error) as exc:
+        _LOGGER.warning("session report for %s not written: %s", station.name, exc)
 
 
 def render_report(session_dir: Path, links: str = "") -> str:

@@ -69,15 +69,15 @@ def analyze_files(
         if opts.json_lines:
             line = {
                 "image": path,
-                "width": doc["width"],
-                "height": doc["height"],
-                "points": [{k: p[k] for k in ("rank", "x", "y", "score")} for p in doc["points"]],
+                "width": doc.width,
+                "height": doc.height,
+                "points": [
+                    {"rank": p.rank, "x": p.x, "y": p.y, "score": p.score} for p in doc.points
+                ],
                 "timing_ms": round(elapsed, 3),
             }
             print(json.dumps(line), file=stdout, flush=True)
         else:
-            best = ", ".join(
-                f"#{p['rank']} ({p['x']:.0f}, {p['y']:.0f}) {p['score']:.2f}" for p in doc["points"]
-            )
+            best = ", ".join(f"#{p.rank} ({p.x:.0f}, {p.y:.0f}) {p.score:.2f}" for p in doc.points)
             print(f"{path}: {best or 'no interest points'} -> {folder}/", file=stdout, flush=True)
     return 1 if failed else 0

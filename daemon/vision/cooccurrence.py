@@ -1,4 +1,4 @@
-"""Co-occurrence-histogram segmentation of one 8-bit plane (after Haddon & Boyce 1990).
+"""The co-occurrence histogram of one 8-bit plane and its classes (after Haddon & Boyce 1990).
 
 Pairs of 4-neighbours (a, b) are counted symmetrically in a 256x256 histogram. Pixels inside
 uniform regions give pairs near the diagonal, so each region type is a peak on the diagonal;
@@ -14,21 +14,11 @@ pairs across boundaries fall off it. A *class* is a diagonal peak (at most 8) an
 * ``disc``: the disc of radius r around (g, g), r the peak's half-width at half-maximum
   times ``radius_scale``, cut to the values nearer to g than to any other peak.
 
-A pixel joins class k when at least ``min_votes`` of its 4 neighbour pairs fall in region k
-(borders reflected); otherwise it stays **unsegmented** (label 0, drawn black).
-Labels 1..K are ordered by class area: 1 is the largest class.
-
-Fast labelling: each value v of class k is coded as u(v) = 32 k + q(v), with q(v) = round(15 (v -
-g)^2 / r^2) <= 15 (one lookup table; q = 0 throughout a block), and w(v) = 32 k + 16 - q(v) is
-derived from u by bit arithmetic. A pair (a, b) lies in the region of a common class exactly when
-the saturating difference w(b) - u(a) is in 1..16, so the test is two SIMD passes per direction (the
-disc edge is resolved to r^2 / 15). Values in no disc get u = 240, whose w is 224: no pair with them
-lands in 1..16.
+Pixels are labelled with these classes by ``segment.segment_plane``.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 from dataclasses import dataclass
 
@@ -41,11 +31,9 @@ __all__ = [
     "PlaneClass",
     "Segmentation",
     "cooccurrence_histogram",
+    "diagonal_classes",
     "find_classes",
-    "segment_plane",
 ]
-
-_NONE = 240
 
 
 @dataclass(frozen=True)
@@ -78,7 +66,7 @@ class PlaneClass:
 
 @dataclass(frozen=True)
 class Segmentation:
-    """Result of :func:`segment_plane`."""
+    """Result of ``segment.segment_plane``."""
 
     labels: np.ndarray
     """(M, N) uint8: 0 = unsegmented, k = 1..K the class of area rank k (1 = largest)."""
@@ -208,8 +196,16 @@ def find_classes(hist: np.ndarray, params: VisionParams) -> tuple[PlaneClass, ..
     >>> [(c.center, c.radius) for c in find_classes(cooccurrence_histogram(plane), disc)]
     [(40, 3), (200, 3)]
     """
+    return diagonal_classes(hist, params)[1]
+
+
+def diagonal_classes(
+    hist: np.ndarray, params: VisionParams
+) -> tuple[np.ndarray, tuple[PlaneClass, ...]]:
+    """The smoothed diagonal profile of ``hist`` and the classes found on it
+    (:func:`find_classes`): ``segment.segment_plane`` keeps both."""
     prof, smooth = _profile(hist, params)
-    return _classes(prof, smooth, params)
+    return prof, _classes(prof, smooth, params)
 
 
 def _profile(hist: np.ndarray, params: VisionParams) -> tuple[np.ndarray, np.ndarray]:
@@ -310,150 +306,3 @@ def _blocks(prof: np.ndarray, smooth: np.ndarray, params: VisionParams) -> tuple
         PlaneClass(g, max(g - lo, hi - g), float(prof[g]), lo=lo, hi=hi)
         for g, (lo, hi) in by_height
     )
-
-
-def _value_tables(
-    classes: tuple[PlaneClass, ...], value_counts: np.ndarray
-) -> tuple[list[int], np.ndarray]:
-    """Number the classes and code the values: (order, per-value u code).
-
-    A value belongs to its block, or to the nearest peak whose disc holds it (ties: the higher peak,
-    i.e. the earlier in ``classes``). Ids 1..K number the classes by expected area, the count of
-    their values (``order[id - 1]`` indexes ``classes``), so the final ranking by exact area is
-    usually the identity and costs no relabelling pass. A value in no disc gets ``_NONE``.
-    """
-    values = np.arange(256)
-    best = np.full(256, np.inf)
-    nearest = np.zeros(256, np.int64)
-    q = np.zeros(256, np.int64)
-    for k, c in enumerate(classes, start=1):
-        if c.is_block:
-            nearest[c.lo : c.hi + 1] = k
-            continue
-        dist = np.abs(values - c.center)
-        inside = (dist <= c.radius) & (dist < best)
-        best[inside] = dist[inside]
-        nearest[inside] = k
-        q[inside] = np.rint(15.0 * dist[inside] ** 2 / c.radius**2)
-    expected = np.bincount(nearest, weights=value_counts, minlength=len(classes) + 1)[1:]
-    order = sorted(range(len(classes)), key=lambda i: -expected[i])
-    renumber = np.zeros(len(classes) + 1, np.int64)
-    renumber[[i + 1 for i in order]] = np.arange(1, len(classes) + 1)
-    cls = renumber[nearest]
-    return order, np.where(cls > 0, 32 * (cls - 1) + np.minimum(q, 15), _NONE).astype(np.uint8)
-
-
-def _w_codes(u: np.ndarray) -> np.ndarray:
-    """w = 32 k + 16 - q from u = 32 k + q, in three SIMD passes (cheaper than a lookup)."""
-    w = cv2.bitwise_and(u, 224)
-    w += 16
-    return cv2.subtract(w, cv2.bitwise_and(u, 31))
-
-
-def _vote(u: np.ndarray, min_votes: int) -> np.ndarray:
-    """uint8 mask (255 = enough neighbour pairs inside the pixel's class disc)."""
-    w = _w_codes(u)
-    # Borders are reflected (as the interest blur does): a pixel's missing pair mirrors the
-    # pair on its other side, so border pixels are neither easier nor harder to label.
-    count = np.zeros(u.shape, np.uint8)
-    if u.shape[1] > 1:
-        h = cv2.inRange(cv2.subtract(w[:, 1:], u[:, :-1]), 1, 16)
-        h >>= 7
-        both = cv2.copyMakeBorder(h, 0, 0, 1, 1, cv2.BORDER_REPLICATE)
-        count = cv2.add(both[:, :-1], both[:, 1:])
-    if u.shape[0] > 1:
-        v = cv2.inRange(cv2.subtract(w[1:], u[:-1]), 1, 16)
-        v >>= 7
-        both = cv2.copyMakeBorder(v, 1, 1, 0, 0, cv2.BORDER_REPLICATE)
-        count = cv2.add(count, cv2.add(both[:-1], both[1:]))
-    return cv2.compare(count, min_votes, cv2.CMP_GE)
-
-
-def _relax(raw: np.ndarray, candidate: np.ndarray) -> np.ndarray:
-    """One pass: an unsegmented pixel joins its value's class if >= 2 neighbours hold it."""
-    padded = cv2.copyMakeBorder(raw, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
-    rows, cols = raw.shape
-    agree = np.zeros(raw.shape, np.uint8)
-    for dy, dx in ((0, 1), (2, 1), (1, 0), (1, 2)):
-        same = cv2.compare(padded[dy : dy + rows, dx : dx + cols], candidate, cv2.CMP_EQ)
-        same >>= 7
-        agree += same
-    # Where the candidate is 0 (no class) joining changes nothing, so no test is needed.
-    join = cv2.bitwise_and(cv2.compare(raw, 0, cv2.CMP_EQ), cv2.compare(agree, 2, cv2.CMP_GE))
-    return cv2.bitwise_or(raw, cv2.bitwise_and(candidate, join))
-
-
-def segment_plane(
-    plane: np.ndarray,
-    params: VisionParams,
-    mask: np.ndarray | None = None,
-    offset: int = 0,
-) -> Segmentation:
-    """Segment one 8-bit plane into at most 8 classes plus unsegmented pixels.
-
-    Parameters
-    ----------
-    plane : (M, N) uint8 ndarray
-        Not modified.
-    params : VisionParams
-    mask : (M, N) bool ndarray, optional
-        Pixels outside the mask are never labelled and their pairs are not counted.
-    offset : int
-        Segment (plane + offset) mod 256 instead (hue rotation); recorded in the result.
-
-    Returns
-    -------
-    Segmentation
-
-    Examples
-    --------
-    >>> from cyborg.daemon.vision.params import PAPER
-    >>> plane = np.full((20, 40), 40, np.uint8)
-    >>> plane[:, 30:] = 200
-    >>> plane[:, 10] = 120                        # a one-pixel line is no region
-    >>> seg = segment_plane(plane, PAPER)
-    >>> [(c.center, c.area) for c in seg.classes]
-    [(40, 580), (200, 200)]
-    >>> seg.labels[5, [0, 10, 29, 30, 39]].tolist()
-    [1, 0, 1, 2, 2]
-    """
-    if plane.ndim != 2:
-        raise ValueError(f"expected an (M, N) plane, got shape {plane.shape}")
-    if plane.dtype != np.uint8:
-        raise ValueError(f"expected uint8, got {plane.dtype}")
-    # numpy uint8 addition wraps modulo 256, which is the hue rotation we want.
-    coded = plane if offset % 256 == 0 else plane + np.uint8(offset % 256)
-    hist = cooccurrence_histogram(coded, mask, params.cooc_max_pairs)
-    prof, smooth = _profile(hist, params)
-    peaks = _classes(prof, smooth, params)
-    if not peaks:
-        return Segmentation(np.zeros(plane.shape, np.uint8), (), hist, offset % 256, coded, prof)
-    order, u_lut = _value_tables(peaks, hist.sum(axis=1))
-    classes = [peaks[i] for i in order]
-    u = cv2.LUT(coded, u_lut)
-    ok = _vote(u, params.min_votes)
-    if mask is not None:
-        ok[~mask] = 0
-    # Every pixel's candidate class is its value's class, the top bits of its u code; the
-    # labelled pixels keep it.
-    candidate = np.right_shift(u, 5) + np.uint8(1)
-    raw = cv2.bitwise_and(candidate, ok)
-    if params.relax_passes:
-        has_class = cv2.compare(u, _NONE, cv2.CMP_NE)
-        if mask is not None:
-            has_class[~mask] = 0
-        candidate = cv2.bitwise_and(candidate, has_class)
-        for _ in range(params.relax_passes):
-            raw = _relax(raw, candidate)
-    areas = [cv2.countNonZero(cv2.compare(raw, k, cv2.CMP_EQ)) for k in range(1, len(classes) + 1)]
-    ranked_ids = sorted(
-        (i for i in range(len(classes)) if areas[i] > 0),
-        key=lambda i: (-areas[i], -classes[i].height, classes[i].center),
-    )
-    to_rank = np.zeros(256, np.uint8)
-    for rank, i in enumerate(ranked_ids, start=1):
-        to_rank[i + 1] = rank
-    identity = ranked_ids == list(range(len(classes)))
-    labels = raw if identity else cv2.LUT(raw, to_rank)
-    ranked = tuple(dataclasses.replace(classes[i], area=areas[i]) for i in ranked_ids)
-    return Segmentation(labels, ranked, hist, offset % 256, coded, prof)

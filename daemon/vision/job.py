@@ -1,8 +1,8 @@
 """One image through the science core at its working size, and every product on disk.
 
-The vision worker's job (:func:`analyse_into`, named to the worker as
-``cyborg.daemon.vision.job:analyse_into`` so the service never imports the science core)
-and what the ``cyborgd analyze`` command, the demo and the benchmarks run
+What the vision worker runs for an :class:`~.contract.AnalysisJob` (:func:`analyse_into`;
+the job itself lives in the light ``contract`` module, so the service never imports the
+science core) and what the ``cyborgd analyze`` command, the demo and the benchmarks run
 (:func:`analyze_image`).
 """
 
@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from ..pointing.geometry import pixel_centre, pixel_index
 from . import render
+from .contract import AnalysisJob, AnalysisResult, ResultPoint
 from .explain import PLANE_NAMES, describe
 from .grid import reduce_to
 from .imageio import as_bgr8, write_atomic, write_jpeg, write_png
@@ -70,7 +70,7 @@ def analyze_image(
 
 def _to_input(value: float, scale: float) -> float:
     """Analysed-pixel coordinate -> input-pixel coordinate (pixel centres line up)."""
-    return (value + 0.5) * scale - 0.5
+    return pixel_index(pixel_centre(value) * scale)
 
 
 def input_points(shape: tuple[int, ...], res: Analysis) -> list[InterestPoint]:
@@ -86,25 +86,24 @@ def input_points(shape: tuple[int, ...], res: Analysis) -> list[InterestPoint]:
 
 def result_document(
     path: str, bgr: np.ndarray, res: Analysis, profile: str, products: dict[str, str]
-) -> dict[str, Any]:
+) -> AnalysisResult:
     """The ``result.json`` contents: points in input pixels, classes, parameters, timings."""
     rows, cols = bgr.shape[:2]
     arows, acols = res.hsi.i.shape
     found = input_points(bgr.shape, res)
-    points = []
-    for p, expl, line in zip(found, res.explanations, res.descriptions, strict=True):
-        points.append(
-            {
-                "rank": p.rank,
-                "x": round(p.x, 2),
-                "y": round(p.y, 2),
-                "radius": round(p.radius, 2),
-                "score": round(p.score, 4),
-                "description": line,
-                "summary": describe(expl),
-                "explanation": expl,
-            }
+    points = tuple(
+        ResultPoint(
+            p.rank,
+            round(p.x, 2),
+            round(p.y, 2),
+            round(p.radius, 2),
+            round(p.score, 4),
+            line,
+            describe(expl),
+            expl,
         )
+        for p, expl, line in zip(found, res.explanations, res.descriptions, strict=True)
+    )
     classes = {
         name: [
             {"label": k, "value": seg.original_value(c.center), "radius": c.radius, "area": c.area}
@@ -112,23 +111,23 @@ def result_document(
         ]
         for name, seg in zip(PLANE_NAMES, res.segmentations, strict=True)
     }
-    return {
-        "image": path,
-        "width": cols,
-        "height": rows,
-        "analysed": {"width": acols, "height": arows},
-        "profile": profile,
-        "params": res.params.to_dict(),
-        "points": points,
-        "classes": classes,
-        "timing_ms": {k: round(v, 3) for k, v in res.timings_ms.items()},
-        "products": products,
-    }
+    return AnalysisResult(
+        path,
+        cols,
+        rows,
+        {"width": acols, "height": arows},
+        profile,
+        res.params.to_dict(),
+        points,
+        classes,
+        {k: round(v, 3) for k, v in res.timings_ms.items()},
+        products,
+    )
 
 
 def write_products(
     folder: Path, path: str, bgr: np.ndarray, res: Analysis, profile: str
-) -> dict[str, Any]:
+) -> AnalysisResult:
     """Write planes, segmentations, co-occurrence plots, maps, overlay and result.json."""
     params = res.params
     products: dict[str, str] = {}
@@ -153,22 +152,15 @@ def write_products(
         put("overlay.png", render.overlay(small, res.points))
         write_jpeg(folder / "overlay_full.jpg", render.overlay(bgr, res.points, scale=scale))
         products["overlay_full"] = "overlay_full.jpg"
-    doc = result_document(path, bgr, res, profile, products)
-    write_atomic(folder / "result.json", (json.dumps(doc, indent=2) + "\n").encode())
-    return doc
+    result = result_document(path, bgr, res, profile, products)
+    write_atomic(folder / "result.json", (json.dumps(result.to_dict(), indent=2) + "\n").encode())
+    return result
 
 
-def analyse_into(  # noqa: PLR0917 - the worker passes a job's arguments by position
-    folder: str,
-    image: np.ndarray,
-    profile_name: str,
-    label: str,
-    prior: np.ndarray | None = None,
-    settings: Sequence[str] = (),
-) -> dict[str, Any]:
-    """The vision worker's job: analyse a mosaic (weighted by ``prior``, memory across
-    stations) with the profile changed by ``settings`` (``NAME=VALUE``, the rig's
-    ``survey.settings``) and write every product into ``folder``."""
-    params = with_settings(profile(profile_name), list(settings))
-    bgr, res = analyze_image(image, params, prior=prior)
-    return write_products(Path(folder), label, bgr, res, profile_name)
+def analyse_into(job: AnalysisJob) -> AnalysisResult:
+    """The vision worker's analysis: the job's mosaic (weighted by its ``prior``, memory
+    across stations) with its profile changed by its ``settings`` (the rig's
+    ``survey.settings``), every product written into its ``folder``."""
+    params = with_settings(profile(job.profile), list(job.settings))
+    bgr, res = analyze_image(job.image, params, prior=job.prior)
+    return write_products(Path(job.folder), job.label, bgr, res, job.profile)

@@ -29,8 +29,7 @@ __all__ = ["discount_texture", "discount_uncommon", "layer_share"]
 _SPAN = (0.6, 0.95)
 """Width shares of the view over which a region goes from no layer to a whole one. A lens
 along the bedding (aspect 2.5-4) can reach three quarters of the view and is a thing on the
-outcrop: from half of the view instead, seeds 0-239 gave large targets top-1 88.3 % instead of
-89.2 (any of 3 94.6 instead of 95.4), real images the same within 0.5."""
+outcrop."""
 _THICK = (0.006, 0.018)
 """Mean thickness (area / width), as shares of the image diagonal, over which a region goes
 from a line (a vein, a crack: no layer) to a bed."""
@@ -54,7 +53,7 @@ def layer_share(seg: Segmentation) -> np.ndarray:
 
     Examples
     --------
-    >>> from cyborg.daemon.vision.cooccurrence import segment_plane
+    >>> from cyborg.daemon.vision.segment import segment_plane
     >>> from cyborg.daemon.vision.params import PAPER
     >>> plane = np.full((120, 160), 100, np.uint8)
     >>> plane[50:60, :] = 200                    # a pale bed across the view

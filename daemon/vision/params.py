@@ -8,7 +8,6 @@ one benchmark run.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import difflib
 import math
@@ -25,7 +24,7 @@ ClassShape = Literal["block", "disc"]
 
 @dataclass(frozen=True)
 class VisionParams:
-    """Parameters of the uncommon-map interest pipeline (see ``docs`` in the README)."""
+    """Parameters of the uncommon-map interest pipeline (see docs/science.md)."""
 
     # Input conditioning
     presmooth: float = 0.0
@@ -129,7 +128,7 @@ class VisionParams:
     line_length: float = 4.0
     """Half-length (analysed pixels) of the segment a line is averaged along. Up to 4 each
     orientation's kernel fits 9 x 9, which OpenCV applies directly (a few ms for all eight at
-    the working size); 6 px (13 x 13) took four times as long for two vein scenes in 60 more."""
+    the working size)."""
 
     # Shadow gate (``shadow``): the seed's "structural shadow"
     shadow_gate: float = 0.0
@@ -169,11 +168,11 @@ class VisionParams:
     bands: float = 0.0
     """With ``valley`` > 0, exponent of the discount on a peak whose patch (above half its
     height) is a band: elongated past 5 : 1 and wider than the blur, a bed, the sky or a
-    ledge's shadow rather than a thing on the outcrop (``interest.band_discount``). 0: no
+    ledge's shadow rather than a thing on the outcrop (``peaks.band_discount``). 0: no
     discount."""
     frame: float = 0.0
     """With ``valley`` > 0, exponent of the discount on a peak by the share of its patch
-    (above half its height) within 1.5 blur sigmas of the frame (``interest.frame_share``):
+    (above half its height) within 1.5 blur sigmas of the frame (``peaks.frame_share``):
     a bed or a rock the frame cuts down to a sliver is mostly out of view, and a class the
     frame truncates looks rarer than it is. 0: no discount."""
     top_n: int = 3
@@ -256,19 +255,19 @@ class VisionParams:
 PAPER = VisionParams()
 """The seed's stated choices (H, S, I; <= 8 classes; rank uncommon map; unweighted sum;
 B = 10 px; top 3), and for what it leaves open, Haddon & Boyce's reading measured on the
-seed's own case (``daemon.regimes.seed_cliff``, 108x192, two wet stains):
+seed's own case (``sim.regimes.seed_cliff``, 108x192, two wet stains):
 
 * classes are blocks of values between valleys of the diagonal profile (persistence >= 50 %
   of a maximum's height, >= 0.5 % of the pairs; histogram smoothed by 3 bins), so regions are
-  coherent and only boundaries stay unsegmented (disc classes left 64-91 % of each plane
+  coherent and only boundaries stay unsegmented (disc classes leave most of each plane
   unsegmented);
 * hue is undefined (H = 0, as 2004-era code did) below S = 32 of 255: on pale rock hue is
-  sensor noise, and kept down to S = 5 it leaves 32 % of H unsegmented;
+  sensor noise;
 * the rank is reversed linearly so the largest class scores 1 and the rarest 8 whatever the
   number of classes K, which is how the seed states it (``rank``, rarest = K, fits that
-  statement only at K = 8; stains top two on 64 % of cliffs instead of 70 %);
+  statement only at K = 8);
 * B is the blur's full width at half maximum (sigma 4.25 px): read as sigma it smears a stain
-  of ~10 px into the bed-scale structure (stains top two on 56 % of cliffs instead of 70 %).
+  of ~10 px into the bed-scale structure.
 """
 
 UNCOMMON = VisionParams(
@@ -289,9 +288,8 @@ UNCOMMON = VisionParams(
     max_pixels=1 << 17,
 )
 """Our best variant of the seed's method alone (H, S, I uncommon maps, no texture): the
-fastest profile, and the best on small colour targets on layered rock. Each departure from
-``PAPER`` was chosen on tuning scenes and images (``bench/quality.py`` seeds 1000+,
-``bench/real.py``) and is reported on others:
+fastest profile, and the best on small colour targets on layered rock. Its departures from
+``PAPER`` (chosen on tuning scenes and images, reported on others: ``docs/science-log.md``):
 
 * the same coherent block segmentation, but 2 of 4 neighbour pairs suffice, one relaxation
   pass and classes down to 0.02 % of the pairs, so thin veins and small spots are labelled;
@@ -325,15 +323,9 @@ DEFAULT = UNCOMMON.replace(
 bed contacts), the shadow gate (``shadow``), the layer discount (``layers``: a bed across the
 view counts at half its rarity), a second, four times wider scale of the uncommon map
 (``wide_scale``: a compact area of rare colour scores as a whole), the discounts on bands and on
-patches hugging the frame (``interest``) and a light pre-smoothing of what is segmented (sensor
-noise flipped small classes in and out between looks): what the rig uses unless told otherwise.
-``bench/real.py`` (347 real labelled images of five kinds), top-1 / any of 3 / repeat@1: 64.0 /
-80.4 / 95.4 %, against 36.6 / 65.1 / 81.0 for ``uncommon`` and 37.2 / 57.1 for the best
-baselines. ``bench/quality.py``: every goal met on tiny spots (top-1 96.7 %, any of 3 98.3 %), on
-the seed's cliff (top-1 100 %) and on veins (95.0 / 97.5 %; spectral residual 90.8 / 99.2), large
-targets 86.7 / 96.7 %; repeat@1 94.2-99.2 % with a target, 88.3 % with none; on the held-out
-generator (``bench.quality --heldout``) large targets 92.5 / 100 %, veins 82.5 / 93.3 %. About 3.3
-times the time of ``uncommon`` at its working size, still milliseconds."""
+patches hugging the frame (``peaks``) and a light pre-smoothing of what is segmented (sensor
+noise flips small classes in and out between looks): what the rig uses unless told otherwise.
+``bench.quality`` and ``bench.real`` measure it against the other profiles and the baselines."""
 
 PROFILES: dict[str, VisionParams] = {
     "paper": PAPER,
@@ -419,20 +411,6 @@ def _describe(kind: Any) -> str:
     if origin in (types.UnionType, typing.Union):
         return " or ".join("none" if a is type(None) else a.__name__ for a in args)
     return kind.__name__
-
-
-def add_settings_argument(parser: argparse.ArgumentParser, what: str) -> None:
-    """``--set NAME=VALUE`` (repeatable, into ``settings``) for a command whose ``what``
-    (e.g. "the profile") it changes: one spelling for the CLI and every benchmark."""
-    parser.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        dest="settings",
-        help=f"change a parameter of {what} (repeatable; names as in result.json's params), "
-        "e.g. --set uncommon=surprisal",
-    )
 
 
 def compared(settings: list[str]) -> dict[str, VisionParams]:

@@ -8,13 +8,15 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from .cooccurrence import Segmentation, segment_plane
+from .cooccurrence import Segmentation
 from .explain import clauses, explain_points, plain_lines
 from .hsi import HSIPlanes, hue_histogram_rotation, rgb_to_hsi
-from .interest import InterestMap, InterestPoint, find_points, interest_map, summed_uncommon
+from .interest import InterestMap, InterestPoint, interest_map, summed_uncommon
 from .layers import discount_texture, discount_uncommon, layer_share
 from .lines import line_rarity, line_shade
 from .params import VisionParams
+from .peaks import find_points
+from .segment import segment_plane
 from .shadow import shadow_likelihood
 from .texture import texture_rarity
 from .uncommon import uncommon_map

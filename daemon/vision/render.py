@@ -5,6 +5,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from cyborg.protocol.palette import POINT_RGB, bgr
+
 from .cooccurrence import Segmentation
 from .interest import InterestPoint
 
@@ -30,9 +32,9 @@ CLASS_COLOURS_RGB = (
 CLASS_COLOURS = tuple((b, g, r) for r, g, b in CLASS_COLOURS_RGB)
 """BGR colour of class k at index k - 1, in the paper's order by class area."""
 
-POINT_COLOURS = ((0, 159, 230), (233, 180, 86), (0, 94, 213))
-"""BGR, from the Okabe-Ito palette, which colour-blind readers tell apart: orange = 1st,
-sky blue = 2nd, vermillion = 3rd interest point (each ring also carries its number)."""
+POINT_COLOURS = tuple(bgr(rgb) for rgb in POINT_RGB)
+"""BGR colour of interest point k at index k - 1 (``protocol.palette``: orange, sky blue,
+vermillion)."""
 
 _LUT = np.zeros((256, 1, 3), np.uint8)
 for _k, _c in enumerate(CLASS_COLOURS, start=1):

@@ -47,31 +47,9 @@ found the same way on a copy ``_WIDE`` times smaller, and kept where its patch i
 (``_LONG``): a ledge's shadow runs along the ledge; a round dark hollow may be the target.
 
 What it cannot see: an untinted shadow on grey rock, and a dark grey target that happens to
-sit on the illuminant line of its host. Measured on ``bench.quality`` (120 scenes a regime),
-the side comparisons and the two shape rules took the best point off decoys on scenes with no
-target from 41.7 to 8.3 % and decoy@3 on tiny spots from 13.6 to 3.3 %, and top-1 on large
-targets from 70.0 to 81.7 %, on veins from 74.2 to 79.2 %; ``bench.real`` did not move. Keeping
-thin tinted lines took decoy@1 with no target from 9.2 to 7.5 % and veins top-1 / any-of-3
-from 78.3 / 91.7 to 80.0 / 95.0 % (tiny any-of-3 99.2 -> 97.5 %), and put the planted stain
-first in the procedural world's 300 m mosaics 66 % of the time, from 63.5 (200 worlds). The
-wide scale then took decoy@1 with no target to 2.5 %, top-1 on veins and large targets to 82.5 %,
-and put the stain first in 17 of the 18 60 m approach mosaics that hold it, from 15; without
-the elongation test it also gated the stain's core out of 4 of the 12 10 m mosaics. The side
-comparisons are made only where a pixel is darker than its surroundings' mean, the
-surroundings are blurred on a grid of 2 x 2 means (``grid.surround``) and the wide scale is
-judged on a grid of 4 x 4: 15 ms at the 0.13 MP working size (``bench.speed``'s 1 MP image,
-one thread; 16 with OpenCV's area reduction at fractional scales).
-
-The dark lines (round 38; 0.3 ms), paired per scene on tuning seeds 1000-1239: held-out veins
-top-1 / any of 3 / repeat@1 77.9 / 90.8 / 89.6 -> 83.8 / 93.8 / 93.8 % (+15 / -1 scenes at
-top-1), ours 96.7 -> 98.8 %, held-out large any of 3 99.2 -> 97.9 (three targets now merged
-with a darker bed the gate no longer hides), the rest within two scenes. Of the held-out
-generator's 63 cracks (seeds 0-119), 46 were more than half in shade, 15 now: those that
-touch a darker bed, which holds a disc. Not kept: darkness judged at ``_DARK`` / 2 (the
-crack's blur is then wider than the opening: held-out veins 80.0 %); a line's parts more than
-8 px from a body's disc un-gated (no different); the lines without the fine-scale opening
-(held-out no-target decoy@1 17.9 -> 10.8 %, but the speckled evidence on a mottled dark target
-then survives: our large targets' top-1 94.2 -> 91.2).
+sit on the illuminant line of its host. For speed, the side comparisons are made only where a
+pixel is darker than its surroundings' mean, the surroundings are blurred on a grid of 2 x 2
+means (``grid.surround``) and the wide scale is judged on a grid of 4 x 4.
 """
 
 from __future__ import annotations

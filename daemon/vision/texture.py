@@ -13,21 +13,15 @@ squared Mahalanobis distance from the image's typical descriptor, the negative
 log-likelihood under one Gaussian model of the image's textures (Reed & Yu's RX detector on
 local features). Blurs of sigma 4 and more run on a grid of 2 x 2 means (``grid.surround``).
 Brightness enters only against the surroundings: how dark a pixel is
-overall is the I plane's business, and an absolute level made whole shadowed ledges rare
-(pooled top-1 on the real sets 48 -> 50 %); as a ratio rather than a difference it took
-pooled top-1 from 50 to 55 % (AI4Mars rocks, whose shadows are their most visible part, 35 ->
-44 %), where log intensity for the contrast too (58 %) lost most thin veins on dark rock.
-Against the likest of five surroundings (``_likest_side``) rather than the centred one, it
-took pooled top-1 from 55.6 to 59.7 % (AI4Mars 44.1 -> 49.7, cracks 50.0 -> 56.9, tile
-defects 32.8 -> 36.1; tiny spots 89.2 -> 90.0 %): the step between two common surfaces no
-longer reads as rare brightness. The median of the five gained little (56.2 %), a soft
-minimum less (57.3 %), reaching half or 1.5 surrounds away 58.2 / 58.5 %.
+overall is the I plane's business, and an absolute level makes whole shadowed ledges rare.
+It is a ratio (a shadow counts by how many times darker it is), against the likest of five
+surroundings (``_likest_side``) rather than the centred one, so the step between two common
+surfaces does not read as rare brightness.
 
 Mean and covariance are estimated robustly, by concentration steps (the C-step of
 Rousseeuw & Van Driessen's FAST-MCD): each step refits on the ``1 - texture_trim`` share of
 pixels nearest the current fit. Plain RX lets a big target (a plant over 20 % of the frame)
-widen the covariance until the target looks common: on the real sets the robust fit took
-plants (cwfid) from 28 % to 83 % top-1 and cracks from 45 % to 55 %.
+widen the covariance until the target looks common.
 """
 
 from __future__ import annotations

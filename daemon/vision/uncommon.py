@@ -95,7 +95,7 @@ def uncommon_map(seg: Segmentation, params: VisionParams) -> np.ndarray:
 
     Examples
     --------
-    >>> from cyborg.daemon.vision.cooccurrence import segment_plane
+    >>> from cyborg.daemon.vision.segment import segment_plane
     >>> from cyborg.daemon.vision.params import PAPER
     >>> plane = np.full((20, 40), 40, np.uint8)
     >>> plane[:, 30:] = 200

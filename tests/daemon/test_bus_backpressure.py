@@ -15,12 +15,12 @@ import signal
 from collections.abc import Iterator
 
 import pytest
-import zenoh
 
 from cyborg.clients.launch import free_port, watcher
 from cyborg.daemon.bus import OUTBOX_BOUND, Bus
 from cyborg.protocol.envelope import decode, encode
 from cyborg.protocol.keys import Keys
+from cyborg.protocol.link import open_session
 from cyborg.protocol.messages import Ack, Event, FrameHeader, PtuState
 from cyborg.protocol.transport import Transport
 
@@ -32,11 +32,10 @@ NEVER_CLOSE_US = 3600 * 10**6
 @pytest.fixture
 def bus() -> Iterator[tuple[Bus, str]]:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    cfg = zenoh.Config.from_json5(Transport(listen=(endpoint,)).json5())
-    cfg.insert_json5(
-        "transport/link/tx/queue/congestion_control/block/wait_before_close", str(NEVER_CLOSE_US)
-    )
-    bus = Bus(zenoh.open(cfg), Keys("stall"))
+    never_close = {
+        "transport/link/tx/queue/congestion_control/block/wait_before_close": str(NEVER_CLOSE_US)
+    }
+    bus = Bus(open_session(Transport(listen=(endpoint,)), never_close), Keys("stall"))
     try:
         yield bus, endpoint
     finally:
@@ -76,8 +75,7 @@ async def test_a_frozen_viewer_neither_blocks_the_loop_nor_a_command(bus) -> Non
                     bus.publish(bus.keys.events, Event("info", "more"))
                     await asyncio.sleep(0.01)
             # A healthy client's command is answered while the viewer is still frozen.
-            cfg = Transport("client", connect=(endpoint,)).json5()
-            with zenoh.open(zenoh.Config.from_json5(cfg)) as client:
+            with open_session(Transport("client", connect=(endpoint,))) as client:
                 key = bus.keys.cmd("alice", "ptu/halt")
                 replies = await asyncio.to_thread(
                     lambda: list(client.get(key, payload=encode("ptu.halt", {}), timeout=30))

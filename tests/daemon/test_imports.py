@@ -7,12 +7,15 @@ from __future__ import annotations
 import subprocess
 import sys
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 import pytest
 
-from cyborg.daemon.survey.machine import ANALYSE
+from cyborg.daemon.survey import AnalysisJob
+from cyborg.daemon.vision.contract import AnalysisResult
 from cyborg.daemon.worker import VisionWorker, WorkerError
 
 SIMULATION = (
@@ -52,13 +55,29 @@ def test_a_simulated_camera_brings_the_simulator_in() -> None:
     assert out.stdout.strip() == "True"
 
 
-async def test_the_worker_runs_the_science_core_by_name() -> None:
-    """The survey's job is named, imported in the worker only; a bad name is a clear error."""
+@dataclass(frozen=True)
+class _Liar:
+    """A job that promises an analysis and returns a dict (what jobs returned once)."""
+
+    returns: ClassVar[type] = AnalysisResult
+
+    def run(self) -> dict:
+        return {"points": []}
+
+
+async def test_the_worker_runs_the_science_core_for_a_typed_job() -> None:
+    """The survey's job is a typed value whose module is light (the science core is imported
+    in the worker only) and its result a typed value; anything else is a clear error."""
     async with VisionWorker() as worker:
         folder = tempfile.mkdtemp()
         img = np.full((60, 80, 3), (60, 110, 160), np.uint8)
         img[25:35, 50:60] = (40, 160, 40)
-        doc = await worker.call(ANALYSE, folder, img, "paper", "t.png")
-        assert doc["points"] and (Path(folder) / "result.json").is_file()
-        with pytest.raises(WorkerError, match="no job"):
-            await worker.call("cyborg.daemon.vision.job:nothing_here")
+        result = await worker.call(AnalysisJob(folder, img, "paper", "t.png"))
+        assert isinstance(result, AnalysisResult) and result.points
+        assert result.points[0].rank == 1 and (Path(folder) / "result.json").is_file()
+        for wrong in ("cyborg.daemon.vision.job:analyse_into", AnalysisJob):
+            with pytest.raises(WorkerError, match="not a worker job"):
+                await worker.call(wrong)
+        with pytest.raises(WorkerError, match="_Liar returned dict, not AnalysisResult"):
+            await worker.call(_Liar())
+        assert (await worker.call(AnalysisJob(folder, img, "paper", "t.png"))).points

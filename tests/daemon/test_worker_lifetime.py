@@ -7,19 +7,34 @@ import signal
 import subprocess
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import ClassVar
 
 import pytest
 
+
+@dataclass(frozen=True)
+class Nap:
+    """A job that only sleeps."""
+
+    seconds: float
+    returns: ClassVar[type] = type(None)
+
+    def run(self) -> None:
+        time.sleep(self.seconds)
+
+
 PARENT = """
-import asyncio, time
+import asyncio
 from cyborg.daemon.worker import VisionWorker
+from tests.daemon.test_worker_lifetime import Nap
 
 async def main():
     worker = VisionWorker()
     worker.start()
     print(worker.pid, flush=True)
-    await worker.call(time.sleep, 120)  # a job far longer than the test
+    await worker.call(Nap(120))  # a job far longer than the test
 
 asyncio.run(main())
 """

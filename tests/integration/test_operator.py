@@ -12,7 +12,7 @@ import pytest
 from bench.browser import MISSING, Browser, chromium
 from cyborg.clients.launch import operator as launch_operator
 from cyborg.clients.rigclient import RigClient
-from cyborg.protocol.messages import PtuState, ReleaseControl, TakeControl
+from cyborg.protocol.messages import REQUESTS, Ack, PtuState, ReleaseControl, TakeControl
 
 pytestmark = [pytest.mark.timeout(240), pytest.mark.skipif(bool(MISSING), reason=MISSING or "")]
 
@@ -147,6 +147,20 @@ async def test_operator_refuses_plainly(
     )
     reply = await asyncio.to_thread(browser.js, post, '{"pan": 1, "tilt": 1}')
     assert reply["ok"] is False and reply["result"] == "REJECTED" and "intruder" in reply["detail"]
+    # The page's commands come from the protocol's registry, and say which need control.
+    commands = await asyncio.to_thread(
+        browser.js, "return fetch('/api/commands').then(r => r.json());"
+    )
+    assert commands == {
+        verb: {"moves": kind.MOVES, "read_only": kind.READ_ONLY}
+        for verb, kind in REQUESTS.items()
+        if kind.REPLY is Ack
+    }
+    await asyncio.to_thread(
+        browser.wait, "document.getElementById('home').title.includes('needs control')"
+    )
+    title = "return document.getElementById('take').title;"
+    assert "needs control" not in await asyncio.to_thread(browser.js, title)
     bad = await asyncio.to_thread(browser.js, post, "{not json")
     assert bad["ok"] is False and bad["result"] == "ERROR"
     # A station's settings typed on the page reach the rig, which names what it refuses.

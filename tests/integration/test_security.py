@@ -21,6 +21,7 @@ import zenoh
 from cyborg.clients.launch import Daemon, free_port, make_certificates, simulated_config, spawn
 from cyborg.clients.rigclient import RigClient, RigUnavailableError
 from cyborg.protocol.envelope import encode
+from cyborg.protocol.link import open_session
 from cyborg.protocol.messages import Hello, PtuGoto, PtuState, SurveyStatus, TakeControl
 from cyborg.protocol.transport import Transport
 from cyborg.protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
@@ -148,7 +149,7 @@ async def test_strangers_get_nothing(rig: str, pki: Path) -> None:
     }
     for what, transport in tries.items():
         with pytest.raises(zenoh.ZError, match="Unable to connect"):
-            zenoh.open(zenoh.Config.from_json5(transport.json5())).close()
+            open_session(transport).close()
         assert what
 
 
@@ -183,9 +184,7 @@ async def test_a_refused_handshake_is_explained_in_the_rig_log(pki: Path, tmp_pa
     try:
         foreign = _tls(pki / "foreign", "alice", pki / "ca.crt")  # trusts us; we do not
         with pytest.raises(zenoh.ZError):
-            zenoh.open(
-                zenoh.Config.from_json5(Transport("client", (), (endpoint,), **foreign).json5())
-            )
+            open_session(Transport("client", (), (endpoint,), **foreign))
         async with asyncio.timeout(10):
             while "WARNING zenoh.zenoh_link_tls" not in log.read_text():
                 await asyncio.sleep(0.1)
@@ -251,7 +250,7 @@ async def test_password_users_through_the_router(pki: Path, tmp_path: Path) -> N
             assert (await alice.command(SurveyStatus())).controller == "alice"
         wrong = Transport("client", (), (endpoint,), tls_ca=ca, user="alice", password="guess")
         with pytest.raises(zenoh.ZError):
-            zenoh.open(zenoh.Config.from_json5(wrong.json5())).close()
+            open_session(wrong).close()
     finally:
         for process in reversed(started):
             await process.stop()

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from bench.heldout import REGIMES as HELDOUT
-from cyborg.daemon.sim.regimes import LARGE_KINDS, REGIMES, VEIN_KINDS, seed_cliff, through_camera
+from cyborg.daemon.sim.camera_effects import through_camera
+from cyborg.daemon.sim.regimes import LARGE_KINDS, REGIMES, VEIN_KINDS, seed_cliff
 from cyborg.daemon.sim.scene import Scene
 
 SEEDS = range(8)

@@ -19,7 +19,7 @@ from cyborg.daemon.camera import CameraError, open_camera
 from cyborg.daemon.config import SurveyConfig
 from cyborg.daemon.ptu import open_ptu
 from cyborg.daemon.rig import Rig
-from cyborg.daemon.survey.machine import Survey, SurveyTelemetry
+from cyborg.daemon.survey import Survey, SurveyTelemetry
 from cyborg.daemon.worker import VisionWorker
 from cyborg.protocol.messages import ChooseTarget, SurveyStart
 

@@ -12,11 +12,11 @@ from cyborg.daemon.vision.imageio import as_bgr8
 from cyborg.daemon.vision.interest import (
     InterestMap,
     _roundness,
-    find_points,
     interest_map,
     summed_uncommon,
 )
 from cyborg.daemon.vision.params import DEFAULT, PAPER
+from cyborg.daemon.vision.peaks import find_points
 from cyborg.daemon.vision.pipeline import analyze
 from cyborg.daemon.vision.uncommon import uncommon_map
 

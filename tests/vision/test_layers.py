@@ -6,10 +6,10 @@ import pytest
 
 from cyborg.daemon.sim.regimes import REGIMES
 from cyborg.daemon.sim.scene import outcrop_scene
-from cyborg.daemon.vision.cooccurrence import segment_plane
 from cyborg.daemon.vision.job import analyze_image, input_points
 from cyborg.daemon.vision.layers import discount_uncommon, layer_share
 from cyborg.daemon.vision.params import DEFAULT, PAPER, VisionParams
+from cyborg.daemon.vision.segment import segment_plane
 
 
 def _plane() -> np.ndarray:

@@ -3,9 +3,10 @@ import numpy as np
 import pytest
 
 from cyborg.daemon.sim.regimes import seed_cliff
-from cyborg.daemon.vision.cooccurrence import cooccurrence_histogram, segment_plane
+from cyborg.daemon.vision.cooccurrence import cooccurrence_histogram
 from cyborg.daemon.vision.params import DEFAULT, PAPER, profile
 from cyborg.daemon.vision.pipeline import analyze
+from cyborg.daemon.vision.segment import segment_plane
 from cyborg.daemon.vision.uncommon import uncommon_map
 
 

@@ -130,6 +130,15 @@ async function send(command, body = {}) {
   return reply;
 }
 
+// The commands the console takes come from the protocol's registry (GET /api/commands:
+// {verb: {moves, read_only}}); a button whose command moves the head says it needs control.
+async function describeCommands() {
+  const commands = await fetch("/api/commands").then((r) => r.json()).catch(() => ({}));
+  for (const b of document.querySelectorAll("button[data-verb]")) {
+    if (commands[b.dataset.verb] && commands[b.dataset.verb].moves) b.title = b.title ? `${b.title} (needs control)` : "needs control";
+  }
+}
+
 function fraction(ev, el) {
   const rect = el.getBoundingClientRect();
   return { u: Math.min(1, Math.max(0, (ev.clientX - rect.left) / rect.width)),
@@ -153,9 +162,9 @@ async function browse(session) {
 }
 
 window.addEventListener("DOMContentLoaded", () => {
-  const buttons = { halt: "ptu/halt", cancel: "survey/cancel", home: "ptu/home",
-                    take: "control/take", release: "control/release" };
-  for (const [id, verb] of Object.entries(buttons)) $(id).onclick = () => send(verb);
+  // A plain button sends the command its data-verb names; the registry says which need control.
+  for (const b of document.querySelectorAll("button[data-verb]")) b.onclick = () => send(b.dataset.verb);
+  describeCommands();
   // A station's own settings (protocol 2.2), NAME=VALUE separated by spaces; none typed: the
   // rig's configured ones. The rig checks them, and says why it refuses.
   $("survey").onclick = () => {

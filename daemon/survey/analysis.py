@@ -1,0 +1,52 @@
+"""A station's analysis as the survey sees it: its profile and settings checked before
+anything moves, and the worker's points as the bus carries them (a direction from the
+pointing model, an angular size, an azimuth and an elevation).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from cyborg.protocol.messages import InterestPoint
+
+from ..pointing.geometry import MosaicGeometry
+from ..vision.contract import AnalysisResult
+from ..vision.params import PROFILES, with_settings
+from .site import Orientation
+
+__all__ = ["check_profile", "interest_points"]
+
+
+def check_profile(profile: str, settings: Sequence[str]) -> None:
+    """Raise ValueError for an unknown profile or a bad setting: a typo is an error before
+    anything moves, not a failed station later."""
+    if profile not in PROFILES:
+        raise ValueError(f"unknown profile {profile!r}; known: {', '.join(PROFILES)}")
+    try:
+        with_settings(PROFILES[profile], list(settings))
+    except ValueError as exc:
+        raise ValueError(f"settings: {exc}") from None
+
+
+def interest_points(
+    analysis: AnalysisResult, geometry: MosaicGeometry, orientation: Orientation
+) -> list[InterestPoint]:
+    """The analysed mosaic's points, each with where it lies and how big it looks."""
+    points = []
+    for p in analysis.points:
+        pan, tilt = geometry.pixel_angles(p.x, p.y)
+        points.append(
+            InterestPoint(
+                p.rank,
+                p.x,
+                p.y,
+                p.score,
+                round(pan, 4),
+                round(tilt, 4),
+                p.description,
+                orientation.azimuth(pan),
+                orientation.elevation(tilt),
+                round(p.radius * geometry.degrees_per_pixel, 4),
+            )
+        )
+    return points

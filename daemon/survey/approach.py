@@ -1,0 +1,185 @@
+"""The approach between stations: the leg the rig is on (the seed's 300 m -> 60 m -> 10 m),
+where the next station is aimed, its mosaic fitted to the aimed target, the zoom a zooming
+(or simulated) approach applies, and the one look-up of the station it was aimed from.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any
+
+import cv2
+import numpy as np
+
+from cyborg.protocol.messages import InterestPoint, SurveyStart
+
+from ..archive import Archive, ArchiveError
+from ..camera import Camera
+from ..pointing.geometry import CameraModel, MosaicGeometry
+
+if TYPE_CHECKING:  # config imports the survey package (its site)
+    from ..config import SurveyConfig
+
+__all__ = ["Approach", "Previous", "advice", "station_geometry", "zooms"]
+
+
+def zooms(cfg: SurveyConfig) -> bool:
+    """Whether the approach narrows the lens rather than walks (intelligent zoom, or a
+    simulation)."""
+    return cfg.simulate_approach or cfg.zoom_on_target
+
+
+def station_geometry(archive: Archive, station_id: str) -> MosaicGeometry:
+    """How a station's mosaic maps to angles, from its archived plan."""
+    try:
+        return MosaicGeometry.from_plan(archive.manifest(station_id)["plan"])
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ArchiveError(f"station {station_id}: no usable plan ({exc})") from None
+
+
+@dataclass(frozen=True)
+class Previous:
+    """The station the current one was aimed from, and how the view changed since."""
+
+    station: str
+    """Its id, ``session/name``."""
+    target: tuple[float, float]
+    """The (pan, tilt) chosen there."""
+    radius_deg: float
+    """The target's angular radius as that station saw it."""
+    walk: float
+    """How many times closer the rig stands now (1 when the approach zooms)."""
+
+    def geometry(self, archive: Archive) -> MosaicGeometry:
+        return station_geometry(archive, self.station)
+
+    def image(self, archive: Archive, product: str, flags: int, what: str) -> np.ndarray:
+        """One of its images (``mosaic.png``, ``analysis/interest.png``), decoded."""
+        session, _, name = self.station.partition("/")
+        png = archive.read(session, f"{name}/{product}", 1 << 26)
+        image = cv2.imdecode(np.frombuffer(png, np.uint8), flags)
+        if image is None:
+            raise ArchiveError(f"{self.station}: unreadable {what}")
+        return image
+
+
+@dataclass
+class Approach:
+    """Where the approach loop stands between stations."""
+
+    session: str = ""
+    index: int = 0
+    leg: int = 0
+    aim: tuple[float, float] | None = None
+    aimed_from: str = ""
+    """``session/name#rank``: the station and point the aim was chosen at."""
+    radius_deg: float = 0.0
+    """The aimed target's angular radius, as the station it was chosen at saw it."""
+    mosaic: tuple[int, int] | None = None
+    """(rows, cols) fitted to the aimed target's size."""
+
+    def distance(self, cfg: SurveyConfig) -> float:
+        return cfg.approach[self.leg]
+
+    def last_leg(self, cfg: SurveyConfig) -> bool:
+        return self.leg + 1 >= len(cfg.approach)
+
+    def magnification(self, cfg: SurveyConfig) -> float:
+        """How much closer the approach has brought the view, when it zooms rather than
+        walks."""
+        return cfg.approach[0] / self.distance(cfg) if zooms(cfg) else 1.0
+
+    def camera(self, cfg: SurveyConfig, base: CameraModel) -> CameraModel:
+        """The optics of ``base`` as this leg sees through them."""
+        return base.zoomed(self.magnification(cfg))
+
+    def complete(self, req: SurveyStart, cfg: SurveyConfig) -> SurveyStart:
+        """``req`` with what it leaves open filled in: the mosaic fitted to the aimed
+        target, else the configured one; the configured reduction, profile and settings."""
+        rows, cols = self.mosaic or (cfg.rows, cfg.cols)
+        return replace(
+            req,
+            rows=rows if req.rows is None else req.rows,
+            cols=cols if req.cols is None else req.cols,
+            downsample=cfg.downsample if req.downsample is None else req.downsample,
+            profile=cfg.profile if req.profile is None else req.profile,
+            settings=cfg.settings if req.settings is None else req.settings,
+        )
+
+    def plan(
+        self, req: SurveyStart, centre: tuple[float, float], camera: CameraModel
+    ) -> MosaicGeometry:
+        """The mosaic a completed ``req`` shoots through ``camera``. Its centre is always a
+        decision: asked for, aimed at, else ``centre`` (surveyed before, or set up)."""
+        default = self.aim or centre
+        pan0 = req.pan0 if req.pan0 is not None else default[0]
+        tilt0 = req.tilt0 if req.tilt0 is not None else default[1]
+        return MosaicGeometry(camera, req.rows, req.cols, pan0, tilt0, req.downsample)
+
+    def previous(self, cfg: SurveyConfig) -> Previous | None:
+        """The station this leg was aimed from; None for a first station or an unaimed one."""
+        if self.aim is None or not self.aimed_from:
+            return None
+        here = self.distance(cfg)
+        walk = 1.0 if self.magnification(cfg) > 1.0 else cfg.approach[self.leg - 1] / here
+        return Previous(self.aimed_from.split("#")[0], self.aim, self.radius_deg, walk)
+
+    def unaim(self) -> None:
+        """No target chosen: the next station is shot at this leg, where the last one was."""
+        self.aim, self.aimed_from, self.mosaic = None, "", None
+
+    def advance(
+        self, point: InterestPoint, chosen_at: str, cfg: SurveyConfig, base: CameraModel
+    ) -> dict[str, Any]:
+        """Aim the next leg at ``point``, chosen at station ``chosen_at``, its mosaic fitted
+        to the target; returns the fit for the manifest."""
+        ratio = self.distance(cfg) / cfg.approach[self.leg + 1]
+        self.leg += 1
+        self.aim, self.aimed_from = (point.pan, point.tilt), f"{chosen_at}#{point.rank}"
+        self.radius_deg = point.radius_deg or 0.0
+        self.mosaic, fit = self._fit(point, ratio, cfg, base)
+        return fit
+
+    def _fit(
+        self, point: InterestPoint, ratio: float, cfg: SurveyConfig, base: CameraModel
+    ) -> tuple[tuple[int, int], dict[str, Any]]:
+        """The next station's mosaic from the target's size: three target diameters each
+        way (the target and its setting), at most the configured mosaic; and the distance
+        at which it would fill a third of the widest view (the seed's missing foresight
+        in where to stand)."""
+        if not point.radius_deg:
+            return (cfg.rows, cfg.cols), {"rows": cfg.rows, "cols": cfg.cols}
+        camera = self.camera(cfg, base)  # at the next leg: narrower if the approach zooms
+        across = 2 * point.radius_deg * ratio  # degrees as seen from the next station
+        if self.magnification(cfg) > 1.0:  # zooming: the view narrows, the target does not grow
+            across = 2 * point.radius_deg
+        cols = max(1, min(cfg.cols, math.ceil(3 * across / camera.hfov)))
+        rows = max(1, min(cfg.rows, math.ceil(3 * across / camera.vfov)))
+        here = cfg.approach[self.leg - 1]
+        suggested = round(here * 2 * point.radius_deg / (base.hfov / 3), 1)
+        fit = {"rows": rows, "cols": cols, "target_deg": round(across, 3), "suggested_m": suggested}
+        return (rows, cols), fit
+
+    async def zoom(self, cfg: SurveyConfig, camera: Camera) -> dict[str, float] | None:
+        """Zoom ``camera`` to this leg's magnification if the approach zooms; the record."""
+        if not zooms(cfg):
+            return None
+        level = self.magnification(cfg)
+        seconds = await camera.zoom(level)
+        return {"level": round(level, 4), "seconds": round(seconds, 3)}
+
+
+def advice(point: InterestPoint, fit: dict[str, Any]) -> str:
+    """What the operator hears about the next station's mosaic, for a target with a size."""
+    if not point.radius_deg:
+        return ""
+    where = (
+        f" (at {fit['suggested_m']:g} m it would fill a third of the view)"
+        if fit.get("suggested_m")
+        else ""
+    )
+    return (
+        f"; {2 * point.radius_deg:.2f}° across, it will span {fit['target_deg']:.1f}°: "
+        f"a {fit['rows']}×{fit['cols']} mosaic{where}"
+    )

@@ -1,0 +1,73 @@
+"""The vision worker's contract: the typed job the daemon sends and the typed result it gets.
+
+Light on purpose: the service imports this module, and the science core loads only in the
+worker, when :meth:`AnalysisJob.run` calls it (``job.analyse_into``). The result's fields are
+``result.json``'s, in its order: :meth:`AnalysisResult.to_dict` is the document on disk.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING, Any, ClassVar
+
+if TYPE_CHECKING:
+    import numpy as np
+
+__all__ = ["AnalysisJob", "AnalysisResult", "ResultPoint"]
+
+
+@dataclass(frozen=True)
+class ResultPoint:
+    """One interest point in input pixels (pixel k's centre at k), ``result.json``'s entry."""
+
+    rank: int
+    x: float
+    y: float
+    radius: float
+    score: float
+    description: str
+    summary: str
+    explanation: list[dict[str, Any]]
+
+
+@dataclass(frozen=True)
+class AnalysisResult:
+    """What one analysis found and wrote: points, classes, parameters, timings, products."""
+
+    image: str
+    width: int
+    height: int
+    analysed: dict[str, int]
+    profile: str
+    params: dict[str, Any]
+    points: tuple[ResultPoint, ...]
+    classes: dict[str, list[dict[str, Any]]]
+    timing_ms: dict[str, float]
+    products: dict[str, str]
+    """Product name -> file name in the analysis folder."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``result.json`` document (a contract: field names and order as declared)."""
+        return asdict(self)
+
+
+@dataclass(frozen=True, eq=False)
+class AnalysisJob:
+    """Analyse ``image`` (a mosaic) with profile ``profile`` changed by ``settings``
+    (``NAME=VALUE``), weighted by ``prior`` (memory across stations, or None), and write
+    every product into ``folder``; ``label`` is the image's name in the result."""
+
+    folder: str
+    image: np.ndarray
+    profile: str
+    label: str
+    prior: np.ndarray | None = None
+    settings: tuple[str, ...] = ()
+
+    returns: ClassVar[type[AnalysisResult]] = AnalysisResult
+
+    def run(self) -> AnalysisResult:
+        """Run in the worker process: the one place the science core is imported."""
+        from .job import analyse_into  # noqa: PLC0415 - the service never loads the science
+
+        return analyse_into(self)

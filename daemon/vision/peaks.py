@@ -1,0 +1,300 @@
+"""Interest points: the highest peaks of the interest map, one per target.
+
+Points are peaks at least B apart. With ``valley`` > 0 two peaks are one target unless the
+map dips below ``valley`` x the lower peak between them (a persistence test, free of any
+size guess), so three points are three targets from a 5 px spot to a patch of 15 % of the
+image; each point's radius is the size of its own patch. With ``bands`` and ``frame`` each
+peak is judged by its whole patch, so beds, the skyline and slivers the frame cuts are
+discounted. Peaks are found on the map's coarse grid and refined to sub-pixel positions.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+
+import cv2
+import numpy as np
+
+from .interest import InterestMap, InterestPoint
+from .params import VisionParams
+
+__all__ = ["band_discount", "find_points", "frame_share"]
+
+
+def _refine(grid: np.ndarray, r: int, c: int) -> tuple[float, float]:
+    """Sub-cell peak position by a parabola through the 3 samples on each axis."""
+
+    def offset(a: float, b: float, d: float) -> float:
+        den = a - 2.0 * b + d
+        return 0.0 if den >= 0 else float(np.clip(0.5 * (a - d) / den, -0.5, 0.5))
+
+    rows, cols = grid.shape
+    dy = offset(grid[r - 1, c], grid[r, c], grid[r + 1, c]) if 0 < r < rows - 1 else 0.0
+    dx = offset(grid[r, c - 1], grid[r, c], grid[r, c + 1]) if 0 < c < cols - 1 else 0.0
+    return r + dy, c + dx
+
+
+def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
+    """Pick the ``top_n`` highest peaks, each at least ``separation`` from the others and,
+    with ``valley`` > 0, on a patch of its own.
+
+    A peak is a local maximum over a (2 d + 1)^2 window (d = separation) that stands above
+    the map's minimum and above 0 (the image's typical level): a flat map (no contrast)
+    yields no points, and nothing commoner than typical is one. A peak's patch is the
+    connected part of the map above ``valley`` x its height over the map's median that
+    holds it, on the map before any roundness (``plain``); a peak whose patch holds a chosen
+    point, or which settles within a chosen point's radius, is that point's target again. A
+    point's radius is that of a disc of the area above half its height (``_EXTENT``), and its
+    position the centre of a ring (``_ring``, looked for down to ``_RING_LEVELS``), else the
+    centre of mass of that patch (of its top, ``_TOP``, where a crescent's centre falls
+    outside it) settled by a mean shift at the point's own radius (``_settle``); without
+    ``valley`` they are the separation and the refined peak.
+    Extents and positions are taken on ``blurred`` when ``grid`` was reshaped by roundness.
+    With ``bands`` or ``frame``, a peak's height is first discounted by what its patch
+    (above half its height) is: a band (``band_discount``) or a patch hugging the frame
+    (``frame_share``).
+
+    Examples
+    --------
+    >>> grid = np.zeros((40, 40), np.float32)
+    >>> grid[10, 10], grid[30, 28], grid[12, 12] = 5.0, 3.0, 4.0
+    >>> from cyborg.daemon.vision.params import PAPER
+    >>> pts = find_points(InterestMap(grid, 1, (40, 40)), PAPER.replace(blur=5.0))
+    >>> [(p.rank, p.x, p.y, p.score, p.radius) for p in pts]
+    [(1, 10.0, 10.0, 5.0, 5.0), (2, 28.0, 30.0, 3.0, 5.0)]
+    >>> ridge = np.zeros((20, 60), np.float32)
+    >>> ridge[10, 5:55] = 1.0
+    >>> ridge[10, [10, 45]] = 1.2                   # two bumps on one ridge: one target,
+    >>> pts = find_points(InterestMap(ridge, 1, (20, 60)), PAPER.replace(blur=3.0, valley=0.5))
+    >>> [(round(p.x), round(p.y), round(p.radius, 1)) for p in pts]  # aimed at its middle
+    [(30, 10, 4.0)]
+    """
+    grid = imap.grid
+    if params.top_n == 0 or grid.size == 0:
+        return []
+    f = imap.factor
+    sep = params.separation(imap.shape) / f
+    d = max(1, round(sep))
+    local = cv2.dilate(grid, np.ones((2 * d + 1, 2 * d + 1), np.uint8))
+    floor = float(grid.min())
+    span = float(grid.max()) - floor
+    if span <= 1e-6:
+        return []
+    peak = (grid >= local) & (grid > max(floor + 1e-3 * span, 0.0))
+    rows, cols = np.nonzero(peak)
+    chosen: list[tuple[int, int, float, float, float, float]] = []  # peak r, c; y, x; ...
+    support = grid if imap.blurred is None else imap.blurred
+    base = float(np.median(support))  # heights count from the map's typical level
+    whole = support if imap.plain is None else imap.plain
+    whole_base = float(np.median(whole))
+    discount = max(params.bands, params.frame) > 0 and params.valley > 0
+    width = _BAND_WIDTH * params.sigma(imap.shape) / f
+    reach = _FRAME_REACH * params.sigma(imap.shape) / f
+    # Highest first (ties by row, then column). A peak's discounts are worked out only when
+    # it comes up, and the peak goes back at its discounted height: the discount never
+    # raises a height, so what comes up already discounted is the highest left, and only
+    # the few peaks above the last point chosen are ever measured.
+    heap = [
+        (-float(grid[r, c]), int(r), int(c), not discount) for r, c in zip(rows, cols, strict=True)
+    ]
+    heapq.heapify(heap)
+    while heap and len(chosen) < params.top_n:
+        key, r, c, final = heapq.heappop(heap)
+        if not final:
+            level = whole_base + _EXTENT * (float(whole[r, c]) - whole_base)
+            patch = _patch(whole, r, c, level)
+            shape = band_discount(patch, width) ** params.bands
+            shape *= (1.0 - frame_share(patch, reach)) ** params.frame
+            heapq.heappush(heap, (key * shape, r, c, True))
+            continue
+        value = -key
+        if any((r - q[0]) ** 2 + (c - q[1]) ** 2 < sep * sep for q in chosen):
+            continue
+        (y, x), radius = _refine(grid, r, c), sep
+        if params.valley > 0:
+            level = whole_base + params.valley * (float(whole[r, c]) - whole_base)
+            if any(_patch(whole, r, c, level)[q[0], q[1]] for q in chosen):
+                continue
+            height = float(support[r, c]) - base
+            patch = _patch(support, r, c, base + _EXTENT * height)
+            ring = _ring_below(support, r, c, patch, base=base, height=height)
+            if ring is not None:  # aim at the ring's centre; it spans what it encloses
+                y, x, area = ring
+                radius = max(1.0, math.sqrt(area / math.pi))
+            else:
+                top = base + _TOP * height
+                y, x = _centre(support, _patch(support, r, c, top), top, (y, x))
+                y, x = _centre(support, patch, base + _EXTENT * height, (y, x))
+                radius = max(1.0, math.sqrt(float(patch.sum()) / math.pi))
+                y, x = _settle(support, base, y, x, radius)
+            if any(math.hypot(y - q[2], x - q[3]) < max(radius, q[5]) for q in chosen):
+                continue
+        chosen.append((r, c, y, x, value, radius))
+    return [
+        InterestPoint(rank, x * f + (f - 1) / 2.0, y * f + (f - 1) / 2.0, value, radius * f)
+        for rank, (_, _, y, x, value, radius) in enumerate(chosen, start=1)
+    ]
+
+
+def band_discount(patch: np.ndarray, width: float) -> float:
+    """min(1, aspect / ``_BAND_ASPECT``) for a patch that is a band, else 1.
+
+    A band is a patch whose spread across (the smaller standard deviation of its cells'
+    positions) exceeds ``width``: wider than the blur makes a line, so a bed, the sky or a
+    ledge's shadow, not a vein or a crack; its aspect is the ratio of the two deviations.
+    Roundness (``isotropy``) judges the map's curvature at twice the blur, and along a
+    band of uneven thickness or rarity it finds a string of round caps; the patch knows
+    the whole band. A lens along the bedding (aspect 2.5-4) is not discounted.
+
+    Examples
+    --------
+    >>> band = np.zeros((60, 200), bool)
+    >>> band[20:32, :] = True
+    >>> round(band_discount(band, 2.0), 2), band_discount(band, 5.0)
+    (0.3, 1.0)
+    >>> yy, xx = np.mgrid[:60, :200]
+    >>> band_discount((yy - 30) ** 2 + (xx - 100) ** 2 < 400, 2.0)
+    1.0
+    """
+    ys, xs = np.nonzero(patch)
+    if len(ys) < 3:
+        return 1.0
+    across, along = np.sqrt(np.maximum(np.linalg.eigvalsh(np.cov(np.stack([ys, xs]))), 0.0))
+    if across <= width:
+        return 1.0
+    return min(1.0, float(across / along) / _BAND_ASPECT)
+
+
+def frame_share(patch: np.ndarray, reach: float) -> float:
+    """The share of a patch's cells less than ``reach`` cells from the frame.
+
+    The blur already counts the outside of the frame as typical rock, so a target cut by
+    the frame scores for what is seen of it; but a bed running along the frame's edge, or
+    the sliver of a rock the frame cuts, is still a whole patch of rare class, rare because
+    the frame truncated its area. Discounting by the share that hugs the frame leaves a
+    target inside the view alone and one crossing the edge mostly so.
+
+    Examples
+    --------
+    >>> patch = np.zeros((50, 80), bool)
+    >>> patch[20:30, 30:40] = True                  # well inside
+    >>> frame_share(patch, 3.0)
+    0.0
+    >>> patch[:] = False
+    >>> patch[0:4, 10:70] = True                    # a sliver along the top
+    >>> frame_share(patch, 3.0)
+    0.75
+    """
+    ys, xs = np.nonzero(patch)
+    if len(ys) == 0:
+        return 0.0
+    rows, cols = patch.shape
+    near = (np.minimum(ys, rows - 1 - ys) < reach) | (np.minimum(xs, cols - 1 - xs) < reach)
+    return float(near.mean())
+
+
+_FRAME_REACH = 1.5
+"""Cells nearer the frame than 1.5 blur sigmas count as hugging it."""
+_BAND_ASPECT = 0.2
+"""Patches more elongated than 5 : 1 are discounted in proportion."""
+_BAND_WIDTH = 1.5
+"""A band is wider (standard deviation across) than 1.5 blur sigmas; a thinner one is a line
+the blur made, a vein or a crack, and keeps its height."""
+
+
+_EXTENT = 0.5
+"""A point's radius is that of a disc of the area of its patch above half its height (the
+full width at half maximum of a blob), whatever ``valley`` says about which peaks are one
+target."""
+_TOP = 0.8
+"""Where the centre of a patch lies outside it (a crescent), the point starts from the
+centre of mass of the patch's top (above 80 % of its height) instead: on a small spot that
+is the spot."""
+
+
+def _centre(
+    support: np.ndarray, patch: np.ndarray, level: float, peak: tuple[float, float]
+) -> tuple[float, float]:
+    """The patch's centre of mass above ``level``: where the target is, steadier under
+    sensor noise than its highest cell (a wide patch's peak wanders with the texture).
+    Falls back to the peak when the centre lies outside the patch (a crescent)."""
+    ys, xs = np.nonzero(patch)
+    weight = support[ys, xs] - level + 1e-9
+    y, x = float(ys @ weight / weight.sum()), float(xs @ weight / weight.sum())
+    return (y, x) if patch[round(y), round(x)] else peak
+
+
+_RING_LEVELS = (0.4, 0.3)
+"""Heights (shares of a peak's) below its extent at which a ring is looked for again: a rim
+much more interesting on one side closes into a ring only lower down."""
+_SETTLE = 10
+"""Most mean-shift steps :func:`_settle` takes (it stops when a step is under 0.05 cell)."""
+
+
+def _ring_below(
+    support: np.ndarray, r: int, c: int, patch: np.ndarray, *, base: float, height: float
+) -> tuple[float, float, float] | None:
+    """:func:`_ring` of the peak's patch at its extent, else at the lower ``_RING_LEVELS``."""
+    ring = _ring(patch)
+    for share in _RING_LEVELS:
+        if ring is not None:
+            break
+        ring = _ring(_patch(support, r, c, base + share * height))
+    return ring
+
+
+def _settle(
+    support: np.ndarray, base: float, y: float, x: float, radius: float
+) -> tuple[float, float]:
+    """Mean shift from (y, x) with a flat disc of the point's own radius over the heights
+    above the typical level: the centre of the target's mass at its own scale. The top's
+    centre leans to the target's most interesting side (a stain's rim seen from 60 m, the
+    half of a patch a bed contact crosses), and the next station would be aimed there; the
+    whole patch's centre is pulled away by a neighbour it merged with, the disc is not.
+    Started from the whole patch's centre, not the top's: along a wide patch (a bed in a view
+    with nothing in it, a long vein) the top wanders with the sensor noise and the disc
+    settles wherever it was let go, the patch's centre stays put."""
+    rows, cols = support.shape
+    reach = math.ceil(radius) + 1
+    for _ in range(_SETTLE):
+        y0, y1 = max(0, round(y) - reach), min(rows, round(y) + reach + 1)
+        x0, x1 = max(0, round(x) - reach), min(cols, round(x) + reach + 1)
+        ys, xs = np.mgrid[y0:y1, x0:x1]
+        inside = (ys - y) ** 2 + (xs - x) ** 2 <= radius * radius
+        weight = np.clip(support[y0:y1, x0:x1] - base, 0.0, None) * inside
+        total = float(weight.sum())
+        if total <= 0.0:
+            break
+        ny, nx = float((ys * weight).sum()) / total, float((xs * weight).sum()) / total
+        done = abs(ny - y) + abs(nx - x) < 0.05
+        y, x = ny, nx
+        if done:
+            break
+    return y, x
+
+
+def _ring(patch: np.ndarray) -> tuple[float, float, float] | None:
+    """The centre (y, x) and enclosed area of a ring-shaped patch, or None for any other
+    shape.
+
+    A stain seen from 60 m is interesting at its bright rim and its edges more than in its
+    even interior, so its patch is a ring whose highest part is one side of the rim; the
+    top's centre would aim the next station at the rim. A patch is a ring when the centre
+    of the area it encloses (holes filled) lies in a hole: then that centre is the target's.
+    """
+    inside = np.pad(~patch, 1, constant_values=True).astype(np.uint8)
+    cv2.floodFill(inside, None, (0, 0), 2)  # what is left at 1 is enclosed by the patch
+    holes = inside[1:-1, 1:-1] == 1
+    if not holes.any():
+        return None
+    ys, xs = np.nonzero(patch | holes)
+    y, x = float(ys.mean()), float(xs.mean())
+    return (y, x, float(len(ys))) if holes[round(y), round(x)] else None
+
+
+def _patch(grid: np.ndarray, r: int, c: int, level: float) -> np.ndarray:
+    """bool mask of the connected part of ``grid >= level`` (8-connected) holding (r, c)."""
+    above = (grid >= level).astype(np.uint8)
+    _, labels = cv2.connectedComponents(above, connectivity=8)
+    return labels == labels[r, c]
