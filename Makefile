@@ -95,5 +95,6 @@ lint: $(STAMP)
 	$(PY) -m ruff check .
 	$(PY) -m ruff format --check .
 
+# Keeps $(OUT)/rig: `make rig`'s archive is field data, not a build product.
 clean:
-	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache *.egg-info
+	rm -rf $(VENV) $(OUT)/demo .pytest_cache .ruff_cache *.egg-info

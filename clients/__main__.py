@@ -56,6 +56,12 @@ def _main(argv: list[str] | None) -> int:
         action="version",
         version=f"%(prog)s {BUILD} (protocol {PROTOCOL_MAJOR}.{PROTOCOL_MINOR})",
     )
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        dest="json_first",
+        help="as the script commands' own --json, given before the command",
+    )
     sub = parser.add_subparsers(dest="command", required=True)
     demo = sub.add_parser("demo", help="a simulated field day: daemon, emulator, three stations")
     demo.add_argument("--out", type=Path, default=Path("out/demo"))
@@ -95,6 +101,10 @@ def _main(argv: list[str] | None) -> int:
     replay.set_defaults(run=run_replay)
     cli.register(sub)
     args = parser.parse_args(argv)
+    if args.json_first:  # `cyborg --json status` as `cyborg status --json`
+        if not hasattr(args, "json"):
+            parser.error(f"--json: cyborg {args.command} has no JSON output")
+        args.json = True
     if hasattr(args, "env_connect"):  # a bus client: refuse a bad name or link up front
         try:
             check_client(args.name)

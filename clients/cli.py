@@ -289,7 +289,13 @@ def register(sub: argparse._SubParsersAction) -> None:
             metavar="S",
             help="how long to wait for the rig to appear on the bus (default 5 s)",
         )
-        p.add_argument("--timeout", type=float, default=300.0, metavar="S")
+        p.add_argument(
+            "--timeout",
+            type=float,
+            default=300.0,
+            metavar="S",
+            help="how long to wait for the rig's answer or the station (default 300 s)",
+        )
         if motion:
             p.add_argument("--take", action="store_true", help="take control from another client")
         p.set_defaults(run=lambda args: asyncio.run(_run(fn, args)))

@@ -45,6 +45,8 @@ def point_rows(manifests: list[dict[str, Any]]) -> list[dict[str, Any]]:
     >>> row = point_rows([m])[0]
     >>> row["azimuth"], row["latitude"], row["site"], row["chosen"]
     (93.0, 40.3, 'Rivas', True)
+    >>> to_csv([row]).splitlines()[1].endswith(",Rivas,true")
+    True
     """
     rows = []
     for m in sorted(manifests, key=lambda m: m.get("index", 0)):
@@ -79,8 +81,17 @@ def to_csv(rows: list[dict[str, Any]]) -> str:
     writer = csv.DictWriter(out, COLUMNS, lineterminator="\n")
     writer.writeheader()
     for row in rows:
-        writer.writerow({k: "" if row[k] is None else row[k] for k in COLUMNS})
+        writer.writerow({k: _cell(row[k]) for k in COLUMNS})
     return out.getvalue()
+
+
+def _cell(value: Any) -> Any:
+    """A CSV cell: empty for unknown, ``true``/``false`` as JSON and GIS tools write them."""
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return value
 
 
 def to_geojson(rows: list[dict[str, Any]]) -> dict[str, Any]:

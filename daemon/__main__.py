@@ -237,8 +237,8 @@ def _main(argv: list[str] | None) -> int:
         except ValueError as exc:
             parser.error(f"--set: {exc}")
         if args.top is not None:
-            if args.top < 0:
-                parser.error("--top must be >= 0")
+            if args.top < 1:
+                parser.error("--top must be at least 1")
             params = params.replace(top_n=args.top)
         # The science core is loaded only to analyse, never by the service.
         cli = importlib.import_module(".tools.analyze", __package__)

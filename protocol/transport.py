@@ -27,9 +27,11 @@ from typing import Any
 
 from .envelope import MAX_MESSAGE
 
-__all__ = ["MAX_LINK_MESSAGE", "MODES", "Transport"]
+__all__ = ["LINKS", "MAX_LINK_MESSAGE", "MODES", "Transport"]
 
 MODES = ("peer", "client", "router")
+LINKS = ("tcp", "udp", "tls", "quic", "ws", "unixsock-stream", "unixpipe", "serial", "vsock")
+"""zenoh's link protocols: anything else (``http://rig:7447``) is a typo, not a far rig."""
 MAX_LINK_MESSAGE = MAX_MESSAGE + 64 * 1024
 """The largest message a link takes in (zenoh's default is 1 GiB): an envelope at the
 protocol's limit, or a live frame with its header. A larger one is dropped as its
@@ -79,9 +81,11 @@ class Transport:
         if self.mode not in MODES:
             raise ValueError(f"zenoh mode {self.mode!r}: use one of {', '.join(MODES)}")
         for ep in (*self.listen, *self.connect):
-            if "/" not in ep:
+            proto = ep.split("/", 1)[0]
+            if "/" not in ep or proto not in LINKS:
                 raise ValueError(
-                    f"zenoh endpoint {ep!r}: want proto/address, e.g. tcp/127.0.0.1:7447"
+                    f"zenoh endpoint {ep!r}: want proto/address with proto one of "
+                    f"{', '.join(LINKS)}, e.g. tcp/127.0.0.1:7447"
                 )
         if self.mode == "client" and not self.connect:
             raise ValueError("zenoh client mode needs at least one connect endpoint")

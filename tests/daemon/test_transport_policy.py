@@ -106,3 +106,17 @@ async def test_a_rig_open_to_every_local_user_says_so_once(tmp_path: Path) -> No
         pass
     notices = [line for line in log.read_text().splitlines() if "any user of this machine" in line]
     assert len(notices) == 1 and endpoint in notices[0]
+
+
+def test_an_endpoint_that_is_no_zenoh_link_is_a_usage_error() -> None:
+    """``--connect http://rig:7447`` is a typo (exit 2), not an unreachable rig (exit 3)."""
+    with pytest.raises(ValueError, match="proto one of tcp, udp, tls"):
+        Transport("client", connect=("http://127.0.0.1:7447",))
+    done = subprocess.run(
+        [sys.executable, "-m", "cyborg.clients", "status", "--connect", "http://127.0.0.1:7447"],
+        check=False,
+        capture_output=True,
+        timeout=60,
+    )
+    assert done.returncode == 2, done.stderr
+    assert b"want proto/address" in done.stderr and b"Traceback" not in done.stderr

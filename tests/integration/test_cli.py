@@ -107,6 +107,15 @@ async def test_an_absent_rig_is_reported_as_unreachable(router: str) -> None:
     assert code == 3 and "nobody" in report["error"] and "not on the bus" in err
     code, report, _ = await cyborg("tcp/127.0.0.1:1", "status")
     assert code == 3 and "cannot reach tcp/127.0.0.1:1" in report["error"]
+    # --json may also come first, as a user types it.
+    first = await asyncio.create_subprocess_exec(
+        *(sys.executable, "-m", "cyborg.clients", "--json", "status"),
+        *("--connect", "tcp/127.0.0.1:1"),
+        stdout=asyncio.subprocess.PIPE,
+        stderr=asyncio.subprocess.PIPE,
+    )
+    out, _ = await first.communicate()
+    assert first.returncode == 3 and "cannot reach" in json.loads(out)["error"]
 
 
 async def test_a_malformed_setting_is_a_usage_error_before_any_connection() -> None:

@@ -227,4 +227,6 @@ def test_usage_errors(tmp_path):
     assert bad.returncode == 2 and "wide_scale must be 0 or above 1" in bad.stderr
     assert cyborgd("analyze", "x.png", "--profile", "nope", cwd=tmp_path).returncode == 2
     assert cyborgd("analyze", "x.png", "--downsample", "0", cwd=tmp_path).returncode == 2
+    bad = cyborgd("analyze", "x.png", "--top", "0", cwd=tmp_path)
+    assert bad.returncode == 2 and "--top must be at least 1" in bad.stderr
     assert cyborgd("analyze", cwd=tmp_path).returncode == 2
