@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo rig test bench bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security lint clean
+.PHONY: demo rig test bench bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security bench-printed bench-novelty bench-targets bench-sizes lint clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -28,7 +28,7 @@ test: $(STAMP)
 	$(PY) -m ruff check .
 	$(PY) -m pytest -q
 
-bench: bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security
+bench: bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security bench-printed bench-novelty bench-targets bench-sizes
 
 bench-quality: $(STAMP)
 	$(PY) -m bench.quality --scenes 120
@@ -82,6 +82,20 @@ bench-edges: $(STAMP)
 # The console under 400 slow-header connections at a 256-file limit.
 bench-console: $(STAMP)
 	$(PY) -m bench.console
+
+bench-printed: $(STAMP)
+	$(PY) -m bench.printed
+
+bench-novelty: $(STAMP)
+	$(PY) -m bench.novelty
+
+# Does "no further target" ever hide a real target? Generated, strip and real views.
+bench-targets: $(STAMP)
+	$(PY) -m bench.targets --scenes 40 --sweep
+
+# Target sizes said vs planted at 300, 60 and 10 m on 5 procedural worlds.
+bench-sizes: $(STAMP)
+	$(PY) -m bench.sizes --worlds 5
 
 # Needs headless Chromium: Debian's chromium and chromium-driver.
 bench-operator: $(STAMP)

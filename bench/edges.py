@@ -42,7 +42,7 @@ async def _rig(tmp: Path, run: int) -> tuple[Daemon, str]:
 async def _survey(endpoint: str, timeout: float) -> asyncio.subprocess.Process:
     """``cyborg survey`` as a script runs it, returned once its first tile is reported."""
     proc = await asyncio.create_subprocess_exec(
-        *(sys.executable, "-m", "cyborg.clients", "survey", "--rows", "3", "--cols", "4"),
+        *(sys.executable, "-m", "cyborg.clients", "survey", "--rows", "2", "--cols", "3"),
         *("--rig", RIG, "--connect", endpoint, "--name", "script"),
         *("--timeout", f"{timeout:g}", "--json"),
         stdout=asyncio.subprocess.PIPE,

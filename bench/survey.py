@@ -55,8 +55,8 @@ async def _condition(
             await c.command(TakeControl())
             stations = []
             for run in range(runs):
-                # Alternate the centre so every run starts with a real slew.
-                req = SurveyStart(rows=rows, cols=cols, pan0=-10.0 if run % 2 else 10.0)
+                # Alternate the centre so every run starts with a real slew (inside the cliff).
+                req = SurveyStart(rows=rows, cols=cols, pan0=-3.0 if run % 2 else 3.0)
                 stations.append((await run_station(c, progress, results, req)).station)
             seen = frames.qsize() if frames is not None else 0
     rows_out = []

@@ -94,6 +94,12 @@ def _main(argv: list[str] | None) -> int:
     replay.add_argument("session", help="a session folder of the archive, or its session.mcap")
     add_link_arguments(replay, "replay")
     replay.add_argument("--speed", type=float, default=1.0, help="x the recorded pace")
+    replay.add_argument(
+        "--once",
+        action="store_true",
+        help="exit at the recording's end (default: go on answering, as the rig stood then, "
+        "until stopped)",
+    )
     replay.add_argument("--as-rig", dest="rig_override", help="rig name (default: recorded)")
     replay.add_argument(
         "--listen", action="append", metavar="ENDPOINT", help="serve clients here, as a rig"

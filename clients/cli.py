@@ -141,7 +141,10 @@ async def _survey(client: RigClient, args: argparse.Namespace) -> tuple[Report, 
     )
     lines = [f"station {result.station}: mosaic {result.width}x{result.height}"]
     for p in result.points:
-        lines.append(f"  #{p.rank} score {p.score:5.2f}  pan {p.pan:+8.3f}  tilt {p.tilt:+7.3f}")
+        mark = "" if p.target else "  no further target"
+        lines.append(
+            f"  #{p.rank} score {p.score:5.2f}  pan {p.pan:+8.3f}  tilt {p.tilt:+7.3f}{mark}"
+        )
         lines.append(f"     {p.why}")
     return {"ok": True, **result.to_body()}, "\n".join(lines)
 
@@ -175,7 +178,7 @@ async def _export(client: RigClient, args: argparse.Namespace) -> tuple[Report, 
             reply = await client.command(ArchiveGet(args.session, product))
             manifests.append(json.loads(reply.data))
     rows = point_rows(manifests)
-    text = to_csv(rows) if args.format == "csv" else json.dumps(to_geojson(rows), indent=1)
+    text = to_csv(rows) if args.format == "csv" else json.dumps(to_geojson(manifests), indent=1)
     out = Path(args.output or f"{args.session}.{args.format}")
     report: Report = {"ok": True, "session": args.session, "points": len(rows)}
     if args.output == "-":

@@ -1,9 +1,11 @@
 """``cyborg demo``: a complete simulated field day through the bus.
 
 Starts ``cyborgd`` with the PTU-46 emulator on a pseudo-terminal (the real serial
-driver at 9600 baud) and the simulated PAL camera on a generated cliff, then acts as
-the field scientist: take control, survey, choose the top target, walk closer (the
-simulated camera magnifies by the distance ratio), survey again, down to 10 m.
+driver at 9600 baud) and the simulated PAL camera on a procedural world with detail at
+every range, then acts as the field scientist: take control, survey, choose the top
+target, walk closer (the simulated camera magnifies by the distance ratio), survey again
+with the mosaic the rig fitted to the target (the one its choice reply announces), down
+to 10 m.
 """
 
 from __future__ import annotations
@@ -43,6 +45,7 @@ async def _demo(out: Path, time_scale: float, seed: int) -> int:
             listen=[f"tcp/127.0.0.1:{port}"],
             time_scale=time_scale,
             seed=seed,
+            scene="world",
             frame_rate=5,
             survey={"approach": [300, 60, 10], "simulate_approach": True},
         )
@@ -59,19 +62,19 @@ async def _demo(out: Path, time_scale: float, seed: int) -> int:
             await client.command(TakeControl())
             request = SurveyStart(rows=2, cols=3, downsample=4.0)
             stations = []
-            for leg in range(3):
+            for _ in range(3):  # 300, 60, 10 m
                 result = await run_station(client, progress, results, request)
                 stations.append(result)
                 print(f"\nstation {result.station}: mosaic {result.width}x{result.height}")
                 for p in result.points:
                     print(f"  #{p.rank} pan {p.pan:7.2f} tilt {p.tilt:6.2f} score {p.score:5.2f}")
                     print(f"       {p.why}")
-                if not result.points:
+                best = next((p for p in result.points if p.target), None)
+                if best is None:  # nothing stands out from this view: nothing to walk to
                     break
-                ack = await client.command(ChooseTarget(result.station, result.points[0].rank))
-                print(f"  chose #1: {ack.detail}")
-                if leg < 2:
-                    request = SurveyStart(rows=1, cols=2, downsample=4.0)
+                ack = await client.command(ChooseTarget(result.station, best.rank))
+                print(f"  chose #{best.rank}: {ack.detail}")
+                request = SurveyStart(downsample=4.0)  # the mosaic the rig fitted
         code = await daemon.stop()
     print(f"\ncyborgd stopped with exit status {code} after {time.perf_counter() - t0:.1f} s")
     print(f"archive: {archive}")

@@ -1,9 +1,12 @@
 """A session's interest points as a table (CSV) or a map layer (GeoJSON), from the station
 manifests: for a spreadsheet, a GIS, or finding the spots again next season.
 
-A point's own position is unknown (the camera gives a direction, not a range), so each
-GeoJSON feature sits at its station, with the azimuth and elevation to the target among
-its properties (RFC 7946: longitude, latitude[, altitude]; no position, ``null`` geometry).
+Each station stands where its manifest's ``site`` says (a GPS fix, the configured site, or
+dead-reckoned along the walk); each point has the azimuth and elevation from its station
+and, where a range was known, its target's estimated position. The GeoJSON (RFC 7946:
+longitude, latitude[, altitude]; no position, ``null`` geometry) has a feature per station,
+one per point (at its target's estimated position, else at its station, ``located`` says
+which) and the session's walk as a line; ``feature`` tells them apart.
 """
 
 from __future__ import annotations
@@ -31,7 +34,18 @@ COLUMNS = (
     "altitude",
     "site",
     "chosen",
+    "station_source",
+    "leg_from",
+    "leg_bearing_deg",
+    "leg_distance_m",
+    "target_latitude",
+    "target_longitude",
+    "target_altitude",
+    "range_m",
 )
+"""The CSV's columns: a contract (new ones are only ever added at the end). ``latitude``,
+``longitude``, ``altitude`` and ``site`` are the station's; ``target_*`` the point's
+estimated position, ``range_m`` the range it was estimated at."""
 
 
 def point_rows(manifests: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -45,14 +59,16 @@ def point_rows(manifests: list[dict[str, Any]]) -> list[dict[str, Any]]:
     >>> row = point_rows([m])[0]
     >>> row["azimuth"], row["latitude"], row["site"], row["chosen"]
     (93.0, 40.3, 'Rivas', True)
-    >>> to_csv([row]).splitlines()[1].endswith(",Rivas,true")
+    >>> ",Rivas,true,unknown,,,,,,," in to_csv([row]).splitlines()[1]
     True
     """
     rows = []
-    for m in sorted(manifests, key=lambda m: m.get("index", 0)):
+    for m in _in_order(manifests):
         site = m.get("site") or {}
+        leg = site.get("leg") or {}
         chosen = (m.get("choice") or {}).get("rank")
         for p in m.get("points", []):
+            target = p.get("position") or {}
             rows.append(
                 {
                     "session": m.get("session", ""),
@@ -71,6 +87,14 @@ def point_rows(manifests: list[dict[str, Any]]) -> list[dict[str, Any]]:
                     "altitude": site.get("altitude"),
                     "site": site.get("name", ""),
                     "chosen": chosen == p["rank"],
+                    "station_source": site.get("source", "unknown"),
+                    "leg_from": leg.get("from", ""),
+                    "leg_bearing_deg": leg.get("bearing_deg"),
+                    "leg_distance_m": leg.get("distance_m"),
+                    "target_latitude": target.get("latitude"),
+                    "target_longitude": target.get("longitude"),
+                    "target_altitude": target.get("altitude"),
+                    "range_m": target.get("range_m"),
                 }
             )
     return rows
@@ -94,14 +118,60 @@ def _cell(value: Any) -> Any:
     return value
 
 
-def to_geojson(rows: list[dict[str, Any]]) -> dict[str, Any]:
+def _in_order(manifests: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    return sorted(manifests, key=lambda m: (m.get("session", ""), m.get("index", 0)))
+
+
+def _point(lon: float | None, lat: float | None, alt: float | None) -> dict[str, Any] | None:
+    """A GeoJSON Point, or None (a ``null`` geometry) where the place is unknown."""
+    if lon is None or lat is None:
+        return None
+    return {"type": "Point", "coordinates": [lon, lat] if alt is None else [lon, lat, alt]}
+
+
+def to_geojson(manifests: list[dict[str, Any]]) -> dict[str, Any]:
+    """Stations, points and walks (module doc) as one FeatureCollection.
+
+    >>> m = {"session": "s", "station": "st02-60m", "distance_m": 60, "index": 2,
+    ...      "site": {"latitude": 40.3, "longitude": -3.5, "source": "dead-reckoned",
+    ...               "leg": {"from": "st01-300m", "bearing_deg": 90.0, "distance_m": 240.0}},
+    ...      "points": [{"rank": 1, "azimuth": 90.0,
+    ...                  "position": {"latitude": 40.3, "longitude": -3.49, "range_m": 60}}]}
+    >>> station, point = to_geojson([m])["features"]
+    >>> station["properties"]["source"], station["geometry"]["coordinates"]
+    ('dead-reckoned', [-3.5, 40.3])
+    >>> point["properties"]["located"], point["geometry"]["coordinates"]
+    ('target', [-3.49, 40.3])
+    """
     features = []
-    for row in rows:
-        lon, lat, alt = row["longitude"], row["latitude"], row["altitude"]
-        geometry = None
-        if lon is not None and lat is not None:
-            coords = [lon, lat] if alt is None else [lon, lat, alt]
-            geometry = {"type": "Point", "coordinates": coords}
-        props = {k: row[k] for k in COLUMNS if k not in ("latitude", "longitude", "altitude")}
-        features.append({"type": "Feature", "geometry": geometry, "properties": props})
+    walks: dict[str, list[list[float]]] = {}
+    for m in _in_order(manifests):
+        site = m.get("site") or {}
+        where = _point(site.get("longitude"), site.get("latitude"), site.get("altitude"))
+        props = {
+            "feature": "station",
+            "session": m.get("session", ""),
+            "station": m.get("station", ""),
+            "distance_m": m.get("distance_m"),
+            "started": m.get("started", ""),
+            "site": site.get("name", ""),
+            "source": site.get("source", "unknown"),
+            "leg": site.get("leg"),
+            "chosen": (m.get("choice") or {}).get("rank"),
+        }
+        features.append({"type": "Feature", "geometry": where, "properties": props})
+        if where is not None:
+            walk = walks.setdefault(props["session"], [])
+            if walk[-1:] != [where["coordinates"][:2]]:
+                walk.append(where["coordinates"][:2])
+    for row in point_rows(manifests):
+        target = _point(row["target_longitude"], row["target_latitude"], row["target_altitude"])
+        at = target or _point(row["longitude"], row["latitude"], row["altitude"])
+        props = {"feature": "point", "located": "target" if target else "station", **row}
+        features.append({"type": "Feature", "geometry": at, "properties": props})
+    for session, line in walks.items():
+        if len(line) > 1:
+            geometry = {"type": "LineString", "coordinates": line}
+            props = {"feature": "walk", "session": session}
+            features.append({"type": "Feature", "geometry": geometry, "properties": props})
     return {"type": "FeatureCollection", "features": features}

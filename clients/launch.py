@@ -76,18 +76,21 @@ def simulated_config(
     time_scale: float = 1.0,
     ptu_query: str = "",
     seed: int = 3,
+    scene: str = "outcrop",
     frame_rate: float = 10.0,
     survey: dict[str, Any] | None = None,
     zenoh: dict[str, Any] | None = None,
     sections: dict[str, dict[str, Any]] | None = None,
 ) -> str:
     """A ``cyborgd.toml`` for a simulated rig: the PTU-46 emulator on a pty behind the
-    real serial driver, and the simulated camera on the generated cliff ``seed``; ``zenoh``
+    real serial driver, and the simulated camera on scene ``seed``: ``outcrop``, the
+    cartoon cliff (cheap to draw: tests), or ``world``, detail at every range (the demo,
+    slower to draw); ``zenoh``
     adds [zenoh] keys (TLS files, ``users``, ``insecure``), ``sections`` tables or keys of
     them (a real [camera], a [site])."""
     mode = "client" if connect and not listen else "peer"
     tables: dict[str, dict[str, Any]] = {
-        "camera": {"url": f"sim://outcrop?seed={seed}&hfov=30"},
+        "camera": {"url": f"sim://{scene}?seed={seed}&hfov=30"},
         "zenoh": {"mode": mode, "listen": list(listen), "connect": list(connect)},
         "frames": {"rate": frame_rate},
         "survey": dict(survey or {}),

@@ -66,7 +66,7 @@ class RigRefusedError(RigError):
     """The rig answered a command with a non-OK ack."""
 
     def __init__(self, command: str, ack: Ack) -> None:
-        super().__init__(f"{command}: {ack.result}: {ack.detail}")
+        super().__init__(f"{command}: {ack.result}: {ack.detail.removeprefix(f'{command}: ')}")
         self.ack = ack
 
 

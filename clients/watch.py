@@ -209,6 +209,8 @@ class RigWatch:
             waiting = msg.result
             if waiting is not None and (v.result is None or v.result.station != waiting.station):
                 v.result, v.chips = waiting, {}  # opened mid-station: the points it awaits
+            elif waiting is None and v.result is not None and not _ahead(v.result, msg):
+                v.result, v.chips = None, {}  # chosen, or a restarted rig: nothing awaits
         elif isinstance(msg, SurveyProgress):
             if v.progress is None or (v.progress.station, v.progress.stage) != (
                 msg.station,
@@ -235,3 +237,8 @@ class RigWatch:
     def _bump(self) -> None:
         self.version += 1
         self._changed.set()
+
+
+def _ahead(result: InterestResult, status: Status) -> bool:
+    """Whether ``result`` came ahead of ``status``: taken while its station still ran."""
+    return status.state == "surveying" and status.station == result.station

@@ -20,7 +20,7 @@ from cyborg.protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
 
 from .app import run
 from .camera import CameraError
-from .config import load, validate
+from .config import Config, load, validate
 from .ptu import PtuError
 from .ptu.emulator import Ptu46Emulator
 from .ptu.models import MODELS
@@ -52,25 +52,37 @@ def _run_parser(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="a simulated rig to try the clients with: the PTU emulator on a pty, the "
         "simulated camera on a generated cliff, the approach magnified, archive in "
-        "./out/rig (each overridable by the flags above)",
+        "./out/rig (each overridable by the flags above or the config file)",
     )
 
 
 SIM_PTU = "pty://?model=D46-17&time_scale=2"
-SIM_CAMERA = "sim://outcrop?seed=3&hfov=30"
+SIM_CAMERA = "sim://world?seed=3&hfov=30"
+
+
+def _simulated(cfg: Config) -> Config:
+    """``--sim``: the simulated parts wherever neither a flag nor the config file chose one
+    (a file's archive, PTU or camera is kept), and the approach magnified."""
+    base = Config()
+    camera = (
+        cfg.camera if cfg.camera.url != base.camera.url else replace(cfg.camera, url=SIM_CAMERA)
+    )
+    return replace(
+        cfg,
+        ptu=SIM_PTU if cfg.ptu == base.ptu else cfg.ptu,
+        archive=Path("out/rig") if cfg.archive == base.archive else cfg.archive,
+        camera=camera,
+        survey=replace(cfg.survey, simulate_approach=True),
+    )
 
 
 def _run_daemon(args: argparse.Namespace) -> int:
     try:
-        if args.sim:  # the flags still win over the simulation's defaults
-            args.ptu = args.ptu or SIM_PTU
-            args.camera = args.camera or SIM_CAMERA
-            args.archive = args.archive or Path("out/rig")
         cfg = load(args.config, rig=args.rig, ptu=args.ptu, archive=args.archive)
-        if args.sim:
-            cfg = replace(cfg, survey=replace(cfg.survey, simulate_approach=True))
         if args.camera:
             cfg = replace(cfg, camera=replace(cfg.camera, url=args.camera))
+        if args.sim:
+            cfg = _simulated(cfg)
         z = cfg.zenoh
         cfg = validate(
             replace(

@@ -34,7 +34,7 @@ import zenoh
 from cyborg.protocol.envelope import MAX_MESSAGE, encode
 from cyborg.protocol.errors import VersionError
 from cyborg.protocol.keys import Keys
-from cyborg.protocol.link import open_session, to_loop
+from cyborg.protocol.link import open_session, send_reply, to_loop
 from cyborg.protocol.messages import Message, clip
 from cyborg.protocol.transport import Transport
 
@@ -274,16 +274,4 @@ class Bus:
                 _LOGGER.exception("command %s from %s failed", clip(verb, 80), clip(client, 80))
                 error = b"internal error; see the daemon log"
         loop = asyncio.get_running_loop()
-        await loop.run_in_executor(self._replies, _send_reply, query, reply, error)
-
-
-def _send_reply(query: zenoh.Query, reply: bytes | None, error: bytes) -> None:
-    """Blocks while the querier's link is congested: on a reply thread, never the loop."""
-    with query:
-        try:
-            if reply is None:
-                query.reply_err(error)
-            else:
-                query.reply(query.key_expr, reply)
-        except zenoh.ZError as exc:
-            _LOGGER.debug("reply not sent: %s", exc)
+        await loop.run_in_executor(self._replies, send_reply, query, reply, error)

@@ -127,8 +127,8 @@ class Commands:
     async def _run(self, name: str, msg: Message, src: str) -> Message:
         try:
             return await self._handlers[name](msg, src)
-        except PtuLimitError as exc:
-            return Ack("LIMIT", str(exc))
+        except PtuLimitError as exc:  # the unit's command code is for the log, not the user
+            return Ack("LIMIT", f"{name}: {exc.message}")
         except (PtuTimeoutError, TimeoutError) as exc:
             return Ack("TIMEOUT", f"{name}: {exc or 'the PTU did not answer in time'}")
         except PtuConnectionError as exc:
@@ -182,6 +182,7 @@ class Commands:
         return Ack("OK", "moving to pan 0, tilt 0")
 
     async def _ptu_halt(self, msg: PtuHalt, src: str) -> Message:
+        self._announce("warning", f"HALT from {src}")  # before what it ends (a station)
         cancelled = await self.survey.cancel(f"halted by {src or 'a client'}")
         await self.rig.ptu.halt()
         return Ack("OK", "halted" + ("; the survey was cancelled" if cancelled else ""))
@@ -196,7 +197,9 @@ class Commands:
         return Ack("OK", "survey cancelled; the station is marked incomplete")
 
     async def _target_choose(self, msg: ChooseTarget, src: str) -> Message:
-        return Ack("OK", await self.survey.choose(msg, src))
+        text = await self.survey.choose(msg, src)
+        self._announce("info", f"choice by {src} at {msg.station}: {text}")
+        return Ack("OK", text)
 
     async def _survey_status(self, msg: SurveyStatus, src: str) -> Message:
         s = self.survey

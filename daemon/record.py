@@ -23,7 +23,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, NamedTuple
 
 from mcap.exceptions import McapError
 from mcap.opcode import Opcode
@@ -44,7 +44,7 @@ from cyborg.protocol.messages import (
     SurveyProgress,
 )
 
-from .archive import FINAL_STATES
+from .archive import FINAL_STATES, MANIFEST
 from .vision.imageio import fsync_dir
 
 __all__ = ["DAMAGED", "FILENAME", "Recorder", "SessionLog", "recover", "recover_logs"]
@@ -62,8 +62,18 @@ CHUNK_S = 2.0
 
 Item = tuple[str, str, int, bytes]
 """(topic, schema name, log time ns, JSON data)."""
-Job = Callable[[], Iterable[Item]]
-"""Work done in the writer thread (reading a mosaic from disk) that yields items."""
+
+
+class Note(NamedTuple):
+    """A metadata record of the file (MCAP ``Metadata``), not a message."""
+
+    name: str
+    values: dict[str, str]
+
+
+Job = Callable[[], Iterable[Item | Note]]
+"""Work done in the writer thread (reading a mosaic or a manifest from disk) that yields
+items."""
 _END_CHUNK = "end of chunk"
 """Queued at a station boundary: close the open chunk now."""
 _ENDS = ("done", *FINAL_STATES)
@@ -117,6 +127,7 @@ class SessionLog:
                 writer.add_metadata("session", self.metadata)
                 _sync(writer, out)  # the header and the metadata, before the first chunk
                 channels: dict[str, int] = {}
+                schemas: dict[str, int] = {}  # each registered once, whatever shares it
                 due: float | None = None  # when the open chunk must close
                 while True:
                     wait = None if due is None else max(0.0, due - time.monotonic())
@@ -129,9 +140,19 @@ class SessionLog:
                     if isinstance(item, str):  # a boundary: the open chunk closes now
                         due = None if due is None else time.monotonic()
                     else:
-                        for topic, schema, ns, data in item() if callable(item) else (item,):
+                        for one in item() if callable(item) else (item,):
+                            if isinstance(one, Note):
+                                writer.add_metadata(one.name, one.values)
+                                continue
+                            topic, schema, ns, data = one
+                            if schema not in schemas:
+                                schemas[schema] = writer.register_schema(
+                                    schema, "jsonschema", rec.schema_data(schema)
+                                )
                             if topic not in channels:
-                                channels[topic] = _channel(writer, topic, schema)
+                                channels[topic] = writer.register_channel(
+                                    topic, "json", schemas[schema]
+                                )
                             writer.add_message(channels[topic], ns, data, ns)
                         if due is None:
                             due = time.monotonic() + CHUNK_S
@@ -158,21 +179,14 @@ def _sync(writer: Writer, out: IO[bytes]) -> None:
     os.fsync(out.fileno())
 
 
-def _channel(writer: Writer, topic: str, schema: str) -> int:
-    if schema.startswith("foxglove."):
-        data = rec.foxglove_schema(schema.split(".", 1)[1])
-    else:
-        data = json.dumps({"title": schema, "type": "object"}).encode()
-    schema_id = writer.register_schema(schema, "jsonschema", data)
-    return writer.register_channel(topic, "json", schema_id)
-
-
 class Recorder:
     """What the daemon publishes, into the current session's log.
 
     A session's log opens when the first message naming one of its stations passes (a
     station's progress); telemetry between sessions is not recorded. Live frames are
-    recorded at ``frame_rate`` (0: none), whether or not anybody watches them.
+    recorded at ``frame_rate`` (0: none), whether or not anybody watches them. Where each
+    station stood, and why one ended incomplete, are read from its manifest: the bus does
+    not carry them.
     """
 
     def __init__(self, archive: Path, metadata: dict[str, str], frame_rate: float) -> None:
@@ -184,6 +198,8 @@ class Recorder:
         self.log: SessionLog | None = None
         self._next_frame = 0.0
         self._closing: list[SessionLog] = []
+        self._sited: SessionLog | None = None
+        """The log whose site metadata is written (at its first station)."""
 
     def message(self, msg: Message) -> None:
         """Telemetry as the bus carries it (progress, results, chips, the PTU state); a
@@ -194,10 +210,12 @@ class Recorder:
         log = self.log
         if log is None:
             return
+        ns = time.time_ns()
         if station and station != self.station:
             self.station = station
             log.end_chunk()
-        ns = time.time_ns()
+            log.put(self._site_job(ns, station, first=log is not self._sited))
+            self._sited = log
         kind = msg.KIND
         log.put((rec.TOPICS[kind], rec.schema_name(kind), ns, rec.to_json(msg)))
         if isinstance(msg, Chip) and msg.jpeg:
@@ -208,6 +226,8 @@ class Recorder:
             )
         elif isinstance(msg, InterestResult):
             log.put(self._mosaic_job(ns, msg))
+        elif isinstance(msg, SurveyProgress) and msg.stage == "incomplete":
+            log.put(self._incomplete_job(ns, msg.station))
         if isinstance(msg, InterestResult) or (
             isinstance(msg, SurveyProgress) and msg.stage in _ENDS
         ):
@@ -215,8 +235,7 @@ class Recorder:
 
     def event(self, event: Event) -> None:
         if self.log is not None:
-            ns = time.time_ns()
-            self.log.put((rec.LOG, "foxglove.Log", ns, rec.log_entry(ns, event, "cyborgd")))
+            self.log.put(_log_item(time.time_ns(), event))
 
     def frame_due(self) -> bool:
         """Whether the next live frame should be recorded (the session log's own rate)."""
@@ -282,6 +301,46 @@ class Recorder:
             )
 
         return job
+
+    def _site_job(self, ns: int, station: str, *, first: bool) -> Job:
+        """Where a station stood, from its manifest: a LocationFix, and at a session's
+        first station the file's ``site`` metadata."""
+        manifest = self.archive / station / MANIFEST
+
+        def job() -> Iterable[Item | Note]:
+            site = _manifest(manifest).get("site") or {}
+            if first and site:
+                yield Note("site", {"station": station} | rec.site_metadata(site))
+            fix = rec.location_fix(ns, station, site)
+            if fix is not None:
+                yield (rec.LOCATION, "foxglove.LocationFix", ns, fix)
+
+        return job
+
+    def _incomplete_job(self, ns: int, station: str) -> Job:
+        """A station left incomplete, with the manifest's reason (a cancel, a HALT, the
+        daemon stopping): the survey announces failures, not these."""
+        manifest = self.archive / station / MANIFEST
+
+        def job() -> Iterable[Item]:
+            reason = _manifest(manifest).get("reason") or "no reason recorded"
+            yield _log_item(ns, Event("warning", f"station {station} incomplete: {reason}"))
+
+        return job
+
+
+def _manifest(path: Path) -> dict[str, Any]:
+    """A station's manifest as far as it can be read (empty, and a warning, if not)."""
+    try:
+        doc = json.loads(path.read_bytes())
+    except (OSError, ValueError) as exc:
+        _LOGGER.warning("session log: cannot read %s: %s", path, exc)
+        return {}
+    return doc if isinstance(doc, dict) else {}
+
+
+def _log_item(ns: int, event: Event) -> Item:
+    return (rec.LOG, "foxglove.Log", ns, rec.log_entry(ns, event, "cyborgd"))
 
 
 def recover_logs(archive: Path) -> list[Path]:

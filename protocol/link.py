@@ -17,7 +17,9 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import logging
 import os
+import re
 from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
@@ -25,9 +27,20 @@ import zenoh
 
 from .transport import Transport
 
-__all__ = ["ADMIN_SPACE", "SOCKET_MODE", "locators", "on_thread", "open_session", "to_loop"]
+__all__ = [
+    "ADMIN_SPACE",
+    "SOCKET_MODE",
+    "locators",
+    "on_thread",
+    "open_session",
+    "plain",
+    "send_reply",
+    "to_loop",
+]
 
 T = TypeVar("T")
+
+_LOGGER = logging.getLogger(__name__)
 
 SOCKET_MODE = 0o660
 """The rig's unix sockets: its own user and group (the scientist's account joins group
@@ -43,10 +56,26 @@ def open_session(transport: Transport, extra: Mapping[str, str] | None = None) -
     cfg = zenoh.Config.from_json5(transport.json5())
     for key, value in (extra or {}).items():
         cfg.insert_json5(key, value)
-    session = zenoh.open(cfg)
+    try:
+        session = zenoh.open(cfg)
+    except zenoh.ZError as exc:  # a port in use, nobody at the endpoint: said plainly
+        raise zenoh.ZError(plain(exc)) from None
     for path in transport.unix_sockets():
         os.chmod(path, SOCKET_MODE)
     return session
+
+
+_RUST_SOURCE = re.compile(r"\s+at \S+\.rs:\d+\.?")
+
+
+def plain(exc: BaseException) -> str:
+    """A zenoh error without the Rust source locations it carries (they mean nothing to the
+    person whose port is taken).
+
+    >>> plain(ValueError("bind: [127.0.0.1:7447: Address in use at /x/tcp.rs:61.] at /y.rs:3."))
+    'bind: [127.0.0.1:7447: Address in use]'
+    """
+    return _RUST_SOURCE.sub("", str(exc)).strip()
 
 
 def locators(session: zenoh.Session, timeout: float = 5.0) -> list[str]:
@@ -78,3 +107,17 @@ def to_loop(
             loop.call_soon_threadsafe(fn, value)
 
     return on_thread(hand_off)
+
+
+def send_reply(query: zenoh.Query, reply: bytes | None, error: bytes) -> None:
+    """Answer ``query`` with ``reply``, or with ``error`` when it is None, and finish it. It
+    blocks while the querier's link is congested: call it on a reply thread, never the loop.
+    A querier gone meanwhile is no error of the answering side."""
+    with query:
+        try:
+            if reply is None:
+                query.reply_err(error)
+            else:
+                query.reply(query.key_expr, reply)
+        except zenoh.ZError as exc:
+            _LOGGER.debug("reply not sent: %s", exc)

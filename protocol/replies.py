@@ -85,8 +85,15 @@ class InterestPoint(Message):
     radius_deg: float | None = None
     """The target's angular radius, degrees (2.1): how big it is, not just where."""
     novelty: float | None = None
-    """Colour difference (ΔE) from the nearest colour earlier stations of the session
-    showed (2.1); None at a session's first station."""
+    """How new the point is against what the session's earlier stations saw at its place and
+    scale (2.1), 0 to 1: 0 when an earlier station ranked it, else the share of its contrast
+    against its surround that no earlier station covering and resolving that place showed; 1
+    when none did. Above 0.5 the explanation says "new since <first station>", else where it
+    was seen ("#1 at st01-300m", "seen at st01-300m"). None at a session's first station and
+    for a point that is no target."""
+    target: bool = True
+    """False when the point's score cannot be told from the view's background (2.4): it is
+    kept and marked, reported as "no further target", with no chip and no choice."""
 
 
 @dataclass(frozen=True)

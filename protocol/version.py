@@ -5,6 +5,8 @@ binds control to it; a 1.x peer is refused with "protocol 2 required".
 2.1: interest points carry azimuth and elevation; a status, the result awaiting a choice.
 2.2: a survey start may carry the station's parameter settings (``NAME=VALUE``).
 2.3: a status carries the PTU's position step (``ptu_step``), read from the unit.
+2.4: an interest point says whether it stands out from its view (``target``; false: "no
+further target", its score indistinguishable from the view's background).
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ BUILD = importlib.metadata.version("cyborg-astrobiologist")
 """This installation's version (``cyborgd --version``, ``cyborg --version``, ``hello``)."""
 
 PROTOCOL_MAJOR = 2
-PROTOCOL_MINOR = 3
+PROTOCOL_MINOR = 4
 
 
 def compatible(major: int) -> bool:

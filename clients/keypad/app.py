@@ -40,8 +40,9 @@ _ARROWS = {
     curses.KEY_UP: (0, 1),
     curses.KEY_DOWN: (0, -1),
 }
-_ASCII = str.maketrans({"←": "<", "→": ">", "↑": "^", "↓": "v", "●": "*", "○": "o", "°": ""})
-_ASCII_CHECK = "✓"
+_ASCII = str.maketrans(
+    {"←": "<", "→": ">", "↑": "^", "↓": "v", "●": "*", "○": "o", "°": "", "✓": "ok"}
+)
 _PAINT_PERIOD = 0.5
 """Seconds between repaints when nothing changes (the ETA counts down)."""
 
@@ -103,7 +104,11 @@ class Keypad:
     def _choose(self, rank: int) -> None:
         result = self.watch.view.result
         if result is None:
-            self.watch.note("refused", "choose: no survey result yet (press s to survey)")
+            self.watch.note("refused", "choose: no station awaits a choice (press s to survey)")
+            return
+        point = next((p for p in result.points if p.rank == rank), None)
+        if point is not None and not point.target:
+            self.watch.note("refused", f"choose: #{rank} is no further target (0: none)")
             return
         msg = ChooseTarget(result.station, rank)
         self._spawn(f"choose #{rank}", lambda: self.client.command(msg))
@@ -157,12 +162,12 @@ class Keypad:
 
     async def _paint(self, screen: curses.window) -> None:
         styles = _styles()
-        utf8 = locale.getpreferredencoding(False).lower().replace("-", "") == "utf8"
+        unicode = _shows_unicode(screen.encoding)
         while True:
             height, width = screen.getmaxyx()
             screen.erase()
             for y, (line, style) in enumerate(render(self.watch.view, self.prompt, width, height)):
-                text = line if utf8 else line.translate(_ASCII).replace(_ASCII_CHECK, "ok")
+                text = line if unicode else line.translate(_ASCII)
                 with contextlib.suppress(curses.error):  # a terminal shrunk mid-paint
                     screen.addnstr(y, 0, text, width - 1, styles[style])
             screen.refresh()
@@ -173,6 +178,17 @@ class Keypad:
                     await self._dirty.wait()
             self._dirty.clear()
             await asyncio.sleep(0.03)  # let a burst of telemetry land in one paint
+
+
+def _shows_unicode(encoding: str) -> bool:
+    """Whether curses can write the arrows and marks in the terminal's encoding. Asked of
+    the screen, not of Python: under a C locale Python speaks UTF-8 while curses, in
+    ASCII, would paint them blank."""
+    try:
+        "".join(map(chr, _ASCII)).encode(encoding)
+    except (UnicodeEncodeError, LookupError):
+        return False
+    return True
 
 
 def _styles() -> dict[str, int]:

@@ -84,6 +84,10 @@ def _header(view: RigView, prompt: Prompt) -> list[Line]:
 
 def _progress(view: RigView, width: int) -> list[Line]:
     p = view.progress
+    if p is None and view.result is not None:  # opened while a station's points wait
+        r = view.result
+        keys = "".join(f"{q.rank}/" for q in r.points if q.target)
+        return [(f" survey  points of {r.station} await a choice: {keys}0", "warn")]
     if p is None:
         return [(" survey  none yet: press s", "dim")]
     fraction = progress_fraction(p.stage, p.done, p.total)
@@ -105,11 +109,14 @@ def _points(view: RigView, width: int) -> list[Line]:
         lines.append(("   none found", "dim"))
     for p in r.points:
         chip = "  chip ✓" if p.rank in view.chips else ""
+        style = "ok" if p.rank == 1 else "normal"
+        if not p.target:
+            chip, style = "  no further target", "dim"
         lines.append(
             (
                 f"  #{p.rank}  score {p.score:6.2f}  pan {p.pan:+8.2f}°  "
                 f"tilt {p.tilt:+7.2f}°{chip}",
-                "ok" if p.rank == 1 else "normal",
+                style,
             )
         )
         why = textwrap.wrap(p.why or "-", width - 7)[:2]

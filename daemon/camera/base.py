@@ -63,6 +63,13 @@ class Camera(ABC):
         (a real lens does not say; the config supplies it)."""
         return None
 
+    @property
+    def extent(self) -> tuple[tuple[float, float], tuple[float, float]] | None:
+        """(pan, tilt) ranges, (min, max) degrees, of the directions this camera has pixels
+        for (a simulated camera's panorama), which a survey's mosaic must stay within; None
+        for a camera that sees wherever it points."""
+        return None
+
     @abstractmethod
     async def open(self) -> None: ...
 

@@ -6,9 +6,14 @@ angular extent. Each frame is rendered through the exact pinhole/pan-tilt geomet
 pointing errors show up in the frames, then gets sensor noise. The built-in scene is
 :func:`daemon.scene.outcrop_scene` at panorama size: a layered cliff with ledge
 shadows and planted targets (wet stain, plant, white vein knot, red spot) whose world
-angles are known, which is what tests, the demo and the survey benchmark score against.
-``sim://world`` instead draws each frame from :class:`daemon.world.World`, a procedural
-outcrop with detail at every range, at the ground resolution of the view.
+angles are known, which is what tests and the survey benchmark score against.
+``sim://world`` (the demo's) instead draws each frame from :class:`daemon.world.World`, a
+procedural outcrop with detail at every range, at the ground resolution of the view.
+
+A panorama has edges; the camera invents no pixels beyond them. It states what it shows
+(:attr:`SimulatedCamera.extent`), so a survey plan reaching further is refused before
+anything moves, and a frame that still looks past an edge (a chip at a mosaic's border, the
+operator jogging the head) shows :data:`NO_DATA` there, not a smear of the border pixels.
 """
 
 from __future__ import annotations
@@ -29,7 +34,21 @@ from ..sim.world import World
 from ..vision.imageio import ImageError, as_bgr8, read_image
 from .base import Camera, CameraError, Exposure, Frame, PoseSource
 
-__all__ = ["Panorama", "PoseSource", "SimulatedCamera", "WorldTarget", "outcrop_panorama"]
+__all__ = [
+    "NO_DATA",
+    "Panorama",
+    "PoseSource",
+    "SimulatedCamera",
+    "WorldTarget",
+    "outcrop_panorama",
+]
+
+PAN, TILT = (-50.0, 50.0), (-26.0, 26.0)
+"""Default extent of a panorama, degrees (min, max): the built-in cliff's, and what a file
+spans unless its URL says: room for the default 2x3 mosaic of a 30 deg camera at pan 0, tilt
+0, which reaches pan +-46.0 and tilt +-24.2."""
+NO_DATA = (0, 0, 0)
+"""BGR of a pixel looking beyond the panorama: exactly black, without sensor noise."""
 
 
 @dataclass(frozen=True)
@@ -65,12 +84,12 @@ class Panorama:
 @functools.lru_cache(maxsize=4)
 def outcrop_panorama(
     seed: int,
-    pan: tuple[float, float] = (-45.0, 45.0),
-    tilt: tuple[float, float] = (-15.0, 20.0),
+    pan: tuple[float, float] = PAN,
+    tilt: tuple[float, float] = TILT,
     pixels_per_degree: float = 24.0,
     n_targets: int = 4,
 ) -> Panorama:
-    """The built-in cliff, cached: a few seconds at the default 2160×840 pixels."""
+    """The built-in cliff, cached: a few seconds at the default 2400×1248 pixels."""
     w = round((pan[1] - pan[0]) * pixels_per_degree)
     h = round((tilt[1] - tilt[0]) * pixels_per_degree)
     scene = outcrop_scene(seed, shape=(h, w), n_targets=n_targets, tiles=(1, 1))
@@ -86,6 +105,17 @@ def outcrop_panorama(
     image = scene.image
     image.setflags(write=False)
     return Panorama(image, pan, tilt, targets)
+
+
+@dataclass(frozen=True)
+class _Maps:
+    """One pose's pixel directions: world degrees (the world) or panorama pixels, and the
+    pixels looking beyond the panorama (None: none do)."""
+
+    key: tuple[float, float, float]
+    a: np.ndarray
+    b: np.ndarray
+    beyond: np.ndarray | None
 
 
 class SimulatedCamera(Camera):
@@ -112,7 +142,7 @@ class SimulatedCamera(Camera):
         self.noise = noise
         self._rng = np.random.default_rng(seed)
         self._seq = 0
-        self._maps: tuple[tuple[float, float, float], np.ndarray, np.ndarray] | None = None
+        self._maps: _Maps | None = None
 
     @property
     def resolution(self) -> tuple[int, int]:
@@ -121,6 +151,13 @@ class SimulatedCamera(Camera):
     @property
     def hfov(self) -> float:
         return self._wide_hfov
+
+    @property
+    def extent(self) -> tuple[tuple[float, float], tuple[float, float]] | None:
+        """The panorama's (pan, tilt) ranges; None for the world, which has no edge."""
+        if isinstance(self.panorama, Panorama):
+            return self.panorama.pan, self.panorama.tilt
+        return None
 
     async def open(self) -> None:
         return None
@@ -142,30 +179,38 @@ class SimulatedCamera(Camera):
         self._maps = None
         return 0.0
 
-    def _directions(self, pan: float, tilt: float) -> tuple[np.ndarray, np.ndarray]:
+    def _directions(self, pan: float, tilt: float) -> _Maps:
         """World (pan, tilt) of every pixel centre at this pose, or where in the panorama
-        they fall (remap samples pixel centres at integer coordinates); cached per pose."""
+        they fall (remap samples pixel centres at integer coordinates) and which fall
+        beyond it; cached per pose."""
         key = (pan, tilt, self.model.hfov)
-        if self._maps is None or self._maps[0] != key:
+        if self._maps is None or self._maps.key != key:
             w, h = self.resolution
             xs = pixel_centre(np.arange(w, dtype=np.float64))
             ys = pixel_centre(np.arange(h, dtype=np.float64))
             a, b = pixel_to_angles(xs[None, :], ys[:, None], pan, tilt, self.model)
+            beyond = None
             if isinstance(self.panorama, Panorama):
+                (p0, p1), (t0, t1) = self.panorama.pan, self.panorama.tilt
+                beyond = (a < p0) | (a > p1) | (b < t0) | (b > t1)
                 px, py = self.panorama.to_pixel(a, b)
                 a, b = pixel_index(px).astype(np.float32), pixel_index(py).astype(np.float32)
-            self._maps = (key, a, b)
-        return self._maps[1], self._maps[2]
+            self._maps = _Maps(key, a, b, beyond if beyond is not None and beyond.any() else None)
+        return self._maps
 
     def render(self, pan: float, tilt: float) -> np.ndarray:
         """The noiseless view at (pan, tilt) degrees."""
-        a, b = self._directions(pan, tilt)
+        maps = self._directions(pan, tilt)
         if isinstance(self.panorama, World):  # drawn at the detail this view resolves
-            return self.panorama.render(a, b, self.model.degrees_per_pixel)
-        # Beyond the panorama the edge is smeared outwards: a mirror would duplicate targets.
-        return cv2.remap(
-            self.panorama.image, a, b, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+            return self.panorama.render(maps.a, maps.b, self.model.degrees_per_pixel)
+        # Replicating covers only the outer half of the border pixels, which the panorama
+        # spans; beyond its edge nothing is invented.
+        image = cv2.remap(
+            self.panorama.image, maps.a, maps.b, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
         )
+        if maps.beyond is not None:
+            image[maps.beyond] = NO_DATA
+        return image
 
     async def grab(self) -> Frame:
         pan, tilt = await self.pose_source() if self.pose_source else self.fixed_pose
@@ -178,12 +223,15 @@ class SimulatedCamera(Camera):
         if self.noise > 0:
             noise = self._rng.normal(0.0, self.noise, image.shape).astype(np.float32)
             image = cv2.add(image, noise, dtype=cv2.CV_8U)
+            beyond = self._directions(pan, tilt).beyond
+            if beyond is not None:
+                image[beyond] = NO_DATA
         return image
 
     @classmethod
     def from_url(cls, url: str, pose: PoseSource | None = None, zoom: str = "") -> SimulatedCamera:
         """``sim://outcrop?seed=N``, ``sim://world?seed=N`` (:class:`daemon.world.World`,
-        detail at every range) or ``sim:///path/pano.png?pan=-45,45&tilt=-15,20``; ``pose``
+        detail at every range) or ``sim:///path/pano.png?pan=-50,50&tilt=-26,26``; ``pose``
         says where the PTU points, ``zoom`` is unused (this camera zooms itself).
 
         All take ``hfov`` (degrees), ``width``, ``height`` and ``noise`` (grey levels).
@@ -199,7 +247,7 @@ class SimulatedCamera(Camera):
                 raise ValueError(f"{name}={q[name]}: want min,max")
             return lo, hi
 
-        pan, tilt = span("pan", (-45.0, 45.0)), span("tilt", (-15.0, 20.0))
+        pan, tilt = span("pan", PAN), span("tilt", TILT)
         panorama: Panorama | World
         if parts.netloc == "outcrop":
             panorama = outcrop_panorama(int(q.get("seed", 0)), pan, tilt)

@@ -27,7 +27,11 @@ __all__ = [
     "pixel_index",
     "pixel_to_angles",
     "positions_to_degrees",
+    "view_extent",
 ]
+
+Span = tuple[float, float]
+"""An angular range, (min, max) degrees."""
 
 _SEAM = 1e-6
 """Pixels by which a direction may fall outside a tile and still count as seen in it: one on
@@ -158,6 +162,22 @@ def angles_to_pixel(pan_w, tilt_w, pan: float, tilt: float, camera: CameraModel)
         return camera.width / 2.0 + f * dx / dz, camera.height / 2.0 - f * dy / dz
 
 
+def view_extent(pan: float, tilt: float, camera: CameraModel) -> tuple[Span, Span]:
+    """(pan, tilt) ranges of every direction a frame shot at (pan, tilt) shows, traced
+    along its four edges through the exact mapping: a tilted frame is no rectangle in
+    angles (its far corners reach further in pan, its top or bottom edge bows).
+
+    >>> [[round(v, 3) for v in span] for span in view_extent(0.0, 0.0, CameraModel())]
+    [[-15.0, 15.0], [-12.099, 12.099]]
+    """
+    w, h = camera.width, camera.height
+    along = np.linspace(0.0, 1.0, 33)
+    xs = np.concatenate([along * w, np.full_like(along, w), along * w, np.zeros_like(along)])
+    ys = np.concatenate([np.zeros_like(along), along * h, np.full_like(along, h), along * h])
+    a, b = pixel_to_angles(xs, ys, pan, tilt, camera)
+    return (float(a.min()), float(a.max())), (float(b.min()), float(b.max()))
+
+
 @dataclass(frozen=True)
 class MosaicGeometry:
     """An M×N quasi-mosaic of butted frames, each reduced ``downsample`` times.
@@ -194,6 +214,37 @@ class MosaicGeometry:
             self.pan0 + (col - (self.cols - 1) / 2.0) * sp,
             self.tilt0 - (row - (self.rows - 1) / 2.0) * st,
         )
+
+    @property
+    def extent(self) -> tuple[Span, Span]:
+        """(pan, tilt) ranges the whole mosaic shows (:func:`view_extent` of every tile)."""
+        spans = [view_extent(*self.tile_pose(r, c), self.camera) for r, c in self.serpentine()]
+        return (
+            (min(p[0] for p, _ in spans), max(p[1] for p, _ in spans)),
+            (min(t[0] for _, t in spans), max(t[1] for _, t in spans)),
+        )
+
+    def check_within(self, shown: tuple[Span, Span] | None) -> None:
+        """Raise ValueError, stating both ranges, if the mosaic reaches beyond the
+        directions a camera ``shown`` (None: a camera that sees wherever it points)."""
+        if shown is None:
+            return
+        reach = self.extent
+        beyond = [
+            f"{axis} {value:.1f}°"
+            for axis, (lo, hi), (show_lo, show_hi) in zip(
+                ("pan", "tilt"), reach, shown, strict=True
+            )
+            for value, out in ((lo, lo < show_lo), (hi, hi > show_hi))
+            if out
+        ]
+        if beyond:
+            (p0, p1), (t0, t1) = shown
+            raise ValueError(
+                f"the {self.rows}×{self.cols} mosaic at pan {self.pan0:.1f}, tilt "
+                f"{self.tilt0:.1f} reaches {' and '.join(beyond)}; the camera's scene shows "
+                f"pan {p0:g}..{p1:g}°, tilt {t0:g}..{t1:g}°"
+            )
 
     def to_plan(self, **extra: Any) -> dict[str, Any]:
         """The station manifest's ``plan``: this geometry as JSON-ready data (with

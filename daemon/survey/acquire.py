@@ -112,10 +112,11 @@ class Acquisition:
         points: list[InterestPoint],
         publish: Callable[[Chip], None],
     ) -> None:
-        """Re-point at each of the first :data:`CHIPS` points and take a full-resolution
-        frame; each chip is saved and published while the head already moves to the next."""
+        """Re-point at each of the first :data:`CHIPS` targets and take a full-resolution
+        frame; each chip is saved and published while the head already moves to the next.
+        A point marked "no further target" (``target`` false) is not looked at again."""
         ptu = self.rig.ptu
-        chosen = points[:CHIPS]
+        chosen = [p for p in points if p.target][:CHIPS]
         saving: asyncio.Task[Chip] | None = None
         for k, point in enumerate(chosen):
             self.progress("chips", k, len(chosen))

@@ -7,10 +7,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
+
 from cyborg.protocol.messages import InterestPoint
 
 from ..pointing.geometry import MosaicGeometry
 from ..vision.contract import AnalysisResult
+from ..vision.extent import target_radius
 from ..vision.params import PROFILES, with_settings
 from .site import Orientation
 
@@ -29,9 +32,15 @@ def check_profile(profile: str, settings: Sequence[str]) -> None:
 
 
 def interest_points(
-    analysis: AnalysisResult, geometry: MosaicGeometry, orientation: Orientation
+    analysis: AnalysisResult,
+    geometry: MosaicGeometry,
+    orientation: Orientation,
+    mosaic: np.ndarray,
 ) -> list[InterestPoint]:
-    """The analysed mosaic's points, each with where it lies and how big it looks."""
+    """The analysed mosaic's points, each with where it lies and how big it looks: its
+    angular radius is the one size a target has anywhere (report, advice, the next fit), the
+    target's extent measured on ``mosaic`` (``extent.target_radius``) times the mosaic's
+    pixel scale."""
     points = []
     for p in analysis.points:
         pan, tilt = geometry.pixel_angles(p.x, p.y)
@@ -46,7 +55,8 @@ def interest_points(
                 p.description,
                 orientation.azimuth(pan),
                 orientation.elevation(tilt),
-                round(p.radius * geometry.degrees_per_pixel, 4),
+                round(target_radius(mosaic, p.x, p.y, p.radius) * geometry.degrees_per_pixel, 4),
+                target=p.target,
             )
         )
     return points

@@ -1,10 +1,12 @@
 """The approach between stations: the leg the rig is on (the seed's 300 m -> 60 m -> 10 m),
 where the next station is aimed, its mosaic fitted to the aimed target, the zoom a zooming
-(or simulated) approach applies, and the one look-up of the station it was aimed from.
+(or simulated) approach applies, the one look-up of the station it was aimed from, and where
+each station stood.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
@@ -17,17 +19,29 @@ from cyborg.protocol.messages import InterestPoint, SurveyStart
 from ..archive import Archive, ArchiveError
 from ..camera import Camera
 from ..pointing.geometry import CameraModel, MosaicGeometry
+from .site import Leg, place
 
 if TYPE_CHECKING:  # config imports the survey package (its site)
     from ..config import SurveyConfig
 
-__all__ = ["Approach", "Previous", "advice", "station_geometry", "zooms"]
+__all__ = ["Approach", "Previous", "advice", "station_geometry", "station_image", "walks", "zooms"]
+
+
+_LOGGER = logging.getLogger(__name__)
 
 
 def zooms(cfg: SurveyConfig) -> bool:
     """Whether the approach narrows the lens rather than walks (intelligent zoom, or a
     simulation)."""
     return cfg.simulate_approach or cfg.zoom_on_target
+
+
+def walks(cfg: SurveyConfig) -> bool:
+    """Whether the rig moves between stations. Only an intelligent zoom leaves it on its
+    tripod: a simulated approach stands for a walk (the simulated world is seen from ever
+    closer along the line of sight, which the narrowing lens renders), so it is placed as one.
+    """
+    return not cfg.zoom_on_target
 
 
 def station_geometry(archive: Archive, station_id: str) -> MosaicGeometry:
@@ -56,12 +70,19 @@ class Previous:
 
     def image(self, archive: Archive, product: str, flags: int, what: str) -> np.ndarray:
         """One of its images (``mosaic.png``, ``analysis/interest.png``), decoded."""
-        session, _, name = self.station.partition("/")
-        png = archive.read(session, f"{name}/{product}", 1 << 26)
-        image = cv2.imdecode(np.frombuffer(png, np.uint8), flags)
-        if image is None:
-            raise ArchiveError(f"{self.station}: unreadable {what}")
-        return image
+        return station_image(archive, self.station, product, flags, what)
+
+
+def station_image(
+    archive: Archive, station_id: str, product: str, flags: int, what: str
+) -> np.ndarray:
+    """One of a station's archived images (``mosaic.png``, ...), decoded as ``flags`` ask."""
+    session, _, name = station_id.partition("/")
+    png = archive.read(session, f"{name}/{product}", 1 << 26)
+    image = cv2.imdecode(np.frombuffer(png, np.uint8), flags)
+    if image is None:
+        raise ArchiveError(f"{station_id}: unreadable {what}")
+    return image
 
 
 @dataclass
@@ -76,11 +97,39 @@ class Approach:
     """``session/name#rank``: the station and point the aim was chosen at."""
     radius_deg: float = 0.0
     """The aimed target's angular radius, as the station it was chosen at saw it."""
+    bearing: float | None = None
+    """The aimed target's azimuth at the station it was chosen at: the way the rig walks."""
     mosaic: tuple[int, int] | None = None
     """(rows, cols) fitted to the aimed target's size."""
 
     def distance(self, cfg: SurveyConfig) -> float:
         return cfg.approach[self.leg]
+
+    def range(self, cfg: SurveyConfig) -> float:
+        """This leg's station's distance to the outcrop from where it stands (a zooming
+        approach stays at the first leg's)."""
+        return self.distance(cfg) if walks(cfg) else cfg.approach[0]
+
+    def place(
+        self, cfg: SurveyConfig, archive: Archive, here: dict[str, Any], last: str
+    ) -> dict[str, Any]:
+        """This leg's station's site record (``site.place``): ``here`` (a fix, or the site)
+        for a session's first station; else dead-reckoned from the station it was aimed
+        from, along the chosen target's azimuth by the distance walked; an unaimed station
+        stands where ``last`` (the session's last station, ``session/name``) stood."""
+        start = self.aimed_from.split("#")[0] or last
+        if not start:
+            return here
+        try:
+            earlier = archive.manifest(start)
+        except (ArchiveError, OSError, ValueError) as exc:
+            _LOGGER.warning("station %s: where it stood is unknown: %s", start, exc)
+            earlier = {}
+        walked = 0.0
+        if self.aimed_from and walks(cfg) and "distance_m" in earlier:
+            walked = round(float(earlier["distance_m"]) - self.distance(cfg), 3)
+        leg = Leg(start.rpartition("/")[2], self.bearing if self.aimed_from else None, walked)
+        return place(here, earlier.get("site") or {}, leg)
 
     def last_leg(self, cfg: SurveyConfig) -> bool:
         return self.leg + 1 >= len(cfg.approach)
@@ -127,7 +176,7 @@ class Approach:
 
     def unaim(self) -> None:
         """No target chosen: the next station is shot at this leg, where the last one was."""
-        self.aim, self.aimed_from, self.mosaic = None, "", None
+        self.aim, self.aimed_from, self.mosaic, self.bearing = None, "", None, None
 
     def advance(
         self, point: InterestPoint, chosen_at: str, cfg: SurveyConfig, base: CameraModel
@@ -137,7 +186,7 @@ class Approach:
         ratio = self.distance(cfg) / cfg.approach[self.leg + 1]
         self.leg += 1
         self.aim, self.aimed_from = (point.pan, point.tilt), f"{chosen_at}#{point.rank}"
-        self.radius_deg = point.radius_deg or 0.0
+        self.radius_deg, self.bearing = point.radius_deg or 0.0, point.azimuth
         self.mosaic, fit = self._fit(point, ratio, cfg, base)
         return fit
 

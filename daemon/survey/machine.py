@@ -33,7 +33,7 @@ from .approach import Approach, advice
 from .memory import SessionMemory
 from .register import register_to
 from .report import update_report
-from .site import Orientation
+from .site import Orientation, locate
 
 if TYPE_CHECKING:  # config imports the survey package (its site)
     from ..config import SurveyConfig
@@ -122,7 +122,7 @@ class Survey:
 
     def start(self, req: SurveyStart, requested_by: str) -> str:
         """Plan and launch a station; returns its id. Raises before touching anything if
-        the plan leaves the unit's limits or a survey runs."""
+        the plan leaves the unit's limits or what the camera shows, or a survey runs."""
         if self.running:
             raise SurveyBusyError(f"station {self.station_id} is still running")
         cfg, ap = self.cfg, self._approach
@@ -131,7 +131,9 @@ class Survey:
         centre = self._last_centre or (cfg.pan0, cfg.tilt0)
         geometry = ap.plan(req, centre, self.live_camera())
         check_reach(geometry, self.rig.ptu.info)
+        geometry.check_within(self.rig.camera.extent)
         self._last_centre = (geometry.pan0, geometry.tilt0)
+        last = self.station_id if ap.session else ""  # the session's last station
         if not ap.session:
             ap.session, ap.index = self.archive.new_session(), 0
             self.memory.clear()
@@ -142,7 +144,7 @@ class Survey:
             ap.index,
             self.distance,
             plan=geometry.to_plan(profile=req.profile, settings=list(settings)),
-            site=self.site(),
+            site=ap.place(cfg, self.archive, self.site(), last),
             requested_by=requested_by,
             aim={"pan": ap.aim[0], "tilt": ap.aim[1], "from": ap.aimed_from} if ap.aim else None,
         )
@@ -180,6 +182,11 @@ class Survey:
         point = next((p for p in result.points if p.rank == msg.rank), None) if msg.rank else None
         if msg.rank and point is None:
             raise ValueError(f"station {result.station} has no point of rank {msg.rank}")
+        if point is not None and not point.target:
+            raise ValueError(
+                f"point {msg.rank} at {result.station} is no further target: its score cannot "
+                "be told from the view's background"
+            )
         aimed = {"pan": point.pan, "tilt": point.tilt} if point else {}
         station.update(choice={"rank": msg.rank, **aimed, "by": by, "t": time.time()})
         await update_report(station)
@@ -237,15 +244,20 @@ class Survey:
             analysis = await self.worker.call(job)
             timing["analysis_s"] = self._analysis_estimate = time.perf_counter() - ta
             station.publish_analysis()
-            found = interest_points(analysis, geometry, self.orientation)
-            radii = {p.rank: p.radius for p in analysis.points}
-            points = await asyncio.to_thread(self.memory.recall, found, radii, mosaic)
-            station.update(points=[p.to_body() for p in points], products=analysis.products)
+            found = interest_points(analysis, geometry, self.orientation, mosaic)
+            points = await asyncio.to_thread(
+                self.memory.recall, found, mosaic, geometry, previous, self.archive
+            )
+            bodies = [p.to_body() for p in points]
+            site, range_m = station.manifest["site"], self._approach.range(self.cfg)
+            station.update(points=locate(bodies, site, range_m), products=analysis.products)
             await shots.chips(station, self.station_id, points, self.tel.chip)
             timing["wall_s"] = time.perf_counter() - t0
             station.update(timing=timing)
             station.finish("complete")
-            await asyncio.to_thread(self.memory.remember, station.name, mosaic)
+            await asyncio.to_thread(
+                self.memory.remember, self.station_id, mosaic, geometry, points, previous
+            )
             await update_report(station)  # current by the time anyone hears of the result
             self._result = InterestResult(self.station_id, tuple(points), *geometry.size)
             self.state = SurveyState.AWAITING_CHOICE

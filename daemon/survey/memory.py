@@ -1,20 +1,41 @@
-"""Memory across stations: what the session's earlier stations showed, so a candidate can be
-called new or already seen (novelty against history, as rover science autonomy ranks
-targets against earlier sols; the seed's authors asked for this memory when walking closer).
+"""Memory across stations: what the session's earlier stations saw at a candidate's place
+and scale, so it can be called new or already seen (novelty against history, as rover
+science autonomy ranks targets against earlier sols; the seed's authors asked for this
+memory when walking closer).
 
-Each station leaves a palette: the 8 main colours of its mosaic in CIE Lab (k-means on a
-reduced copy). A new point's novelty is the colour difference (ΔE, CIE76) from its patch's
-colour to the nearest colour any earlier station showed: small, the same stuff seen from
-further away; large, something the walk has revealed.
+Where. Each station keeps its :class:`~.register.Frame`: how its directions map into the
+session's first station's, composed along the walks it was aimed through (300 -> 60 -> 10 m:
+the 10 m view is placed in the 60 m one and, through it, in the 300 m one); a station shot
+without a new aim (a repeat) stands where the last one stood. So every earlier station of
+the session, not only the one aimed from, tells where it saw a new point, and how big: the
+point's angular radius divided by the walks between.
 
-The coarse station also steers the close one (:func:`station_prior`, the seed's proposal):
-its interest map, carried into the new mosaic's frame by the same prediction registration
-uses, and a neighbourhood around the chosen target weigh the new station's interest, so
-what was judged common from afar is de-emphasised and the target's surroundings favoured.
+What it saw. An earlier station *ranked* the point when one of its targets of comparable
+size (within ``_SCALE`` times) covers that place; it *saw* it as distinct as it is now when
+its own mosaic, read back from the archive once a session, resolves the place (at least
+``_RESOLVE`` pixels of radius) and shows there the same contrast of the patch's core against
+its surround (:func:`distinctness`: ΔE, CIE76, so robust to exposure; measured in each
+station's own pixels, the same angular patch in far fewer pixels from afar; the best within
+half a radius, for the registration's residual).
+
+Novelty, per point: 0 when an earlier station ranked it; else the share of its distinctness
+that no earlier station covering and resolving it showed, ``(now - then) / max(now,
+DISTINCT)``, the least over them; 1 when none covered or resolved it. Above ``NEW`` it is
+"new since" the session's first station; else the clause says where it was seen ("#1 at
+st01-300m", "seen at st01-300m"). A repeated view ranks or sees everything again.
+
+Each station also leaves a palette, the 8 main colours of its mosaic in CIE Lab (k-means on
+a reduced copy), for the coarse station's steering of the close one (:func:`station_prior`,
+the seed's proposal): its interest map, carried into the new mosaic's frame by the same
+prediction registration uses, and a neighbourhood around the chosen target weigh the new
+station's interest, so what was judged common from afar is de-emphasised and the target's
+surroundings favoured.
 """
 
 from __future__ import annotations
 
+import logging
+import math
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -25,14 +46,37 @@ from cyborg.protocol.messages import InterestPoint
 
 from ..archive import Archive, ArchiveError
 from ..pointing.geometry import MosaicGeometry, pixel_centre
-from .approach import Previous
-from .register import carry
+from .approach import Previous, station_image
+from .register import Frame, carry
 
-__all__ = ["NEW_DE", "SessionMemory", "phrase", "station_prior"]
+__all__ = [
+    "DISTINCT",
+    "NEW",
+    "NEW_DE",
+    "SessionMemory",
+    "distinctness",
+    "lab_image",
+    "station_prior",
+]
+
+_LOGGER = logging.getLogger(__name__)
 
 NEW_DE = 20.0
 """ΔE above which a colour counts as not seen before (about twice the difference most
 people call clearly different)."""
+NEW = 0.5
+"""Novelty above which a point is called new: no earlier station showed half of its
+distinctness there."""
+DISTINCT = 6.0
+"""ΔE of core against surround below which a patch is not distinct (a few times the 2.3
+people just notice): a plain patch seen plain before is not new for the noise in it."""
+_RESOLVE = 1.0
+"""Radius, in an earlier station's mosaic pixels, below which it could not resolve a patch."""
+_SCALE = 5.0
+"""How many times larger or smaller than the new point an earlier target may be and still
+be the same one: one leg's walk (300 -> 60 m), for sizes measured from interest maps are
+rough (the 60 m stain of a seeded world is 1.7 deg, its 300 m #1 5.5 deg). A detail much
+smaller than the earlier target it lies in is judged by what that station saw of it."""
 PALETTE = 8
 _SAMPLE = 96
 """Longest side of the mosaic copy the palette is learnt on."""
@@ -44,12 +88,77 @@ def _lab(bgr: np.ndarray) -> np.ndarray:
     return lab.reshape(-1, 3)
 
 
+def lab_image(bgr: np.ndarray) -> np.ndarray:
+    """Float Lab of a uint8 BGR image, (M, N, 3)."""
+    return _lab(bgr).reshape(bgr.shape)
+
+
+def distinctness(lab: np.ndarray, x: float, y: float, radius: float) -> float:
+    """ΔE between the mean colours of a patch's core and its surround, in the Lab image
+    ``lab`` (M, N, 3): the core is the disc of half the ``radius`` (at least a pixel) around
+    pixel (x, y) (centres at integers, as the analysis counts them), the surround the ring
+    from 1.5 to 2.5 radii; both cut to the image (0 when either falls outside it)."""
+    rows, cols = lab.shape[:2]
+    core = max(1.0, 0.5 * radius)
+    inner = max(core + 1.0, 1.5 * radius)
+    outer = inner + max(1.5, radius)
+    reach = math.ceil(outer)
+    x0, x1 = max(0, round(x) - reach), min(cols, round(x) + reach + 1)
+    y0, y1 = max(0, round(y) - reach), min(rows, round(y) + reach + 1)
+    ys, xs = np.mgrid[y0:y1, x0:x1]
+    dist = np.hypot(xs - x, ys - y)
+    window = lab[y0:y1, x0:x1]
+    inside, ring = window[dist <= core], window[(dist >= inner) & (dist <= outer)]
+    if not len(inside) or not len(ring):
+        return 0.0
+    return float(np.linalg.norm(inside.mean(axis=0) - ring.mean(axis=0)))
+
+
+@dataclass(frozen=True)
+class _Station:
+    """What memory keeps of a station: where it stood and looked, what it ranked."""
+
+    id: str
+    """``session/name``."""
+    frame: Frame
+    geometry: MosaicGeometry
+    points: tuple[InterestPoint, ...]
+    palette: np.ndarray
+    """(PALETTE, 3) Lab: its main colours, for :func:`station_prior`."""
+
+    @property
+    def name(self) -> str:
+        return self.id.partition("/")[2]
+
+    def ranked(self, pan: float, tilt: float, radius: float) -> int | None:
+        """The rank of its target of comparable size that covers (pan, tilt), a patch of
+        ``radius`` degrees as it saw them, or of whose place that patch covers."""
+        for q in self.points:
+            size = q.radius_deg or 0.0
+            if not q.target or not size / _SCALE <= radius <= size * _SCALE:
+                continue
+            if math.hypot(pan - q.pan, tilt - q.tilt) <= max(size, radius):
+                return q.rank
+        return None
+
+
 @dataclass
 class SessionMemory:
-    stations: list[tuple[str, np.ndarray]] = field(default_factory=list)
-    """(station name, its palette: (PALETTE, 3) Lab)."""
+    stations: list[_Station] = field(default_factory=list)
+    """The session's completed stations, oldest first."""
+    mosaics: dict[str, np.ndarray | None] = field(default_factory=dict)
+    """Earlier stations' mosaics in Lab (None: unreadable), read from the archive once."""
 
-    def remember(self, station: str, mosaic: np.ndarray) -> None:
+    def remember(
+        self,
+        station_id: str,
+        mosaic: np.ndarray,
+        geometry: MosaicGeometry,
+        points: list[InterestPoint],
+        previous: Previous | None,
+    ) -> None:
+        """Keep a completed station: where it stood (aimed from ``previous``), how its
+        ``mosaic`` maps to angles, its ranked ``points`` and its palette."""
         rows, cols = mosaic.shape[:2]
         scale = _SAMPLE / max(rows, cols)
         f = min(scale, 1.0)
@@ -59,44 +168,37 @@ class SessionMemory:
         criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 20, 0.5)
         cv2.setRNGSeed(0)
         _, _, centres = cv2.kmeans(lab, k, None, criteria, 2, cv2.KMEANS_PP_CENTERS)
-        self.stations.append((station, centres))
-
-    def novelty(
-        self, mosaic: np.ndarray, x: float, y: float, radius: float
-    ) -> tuple[float, str] | None:
-        """(ΔE to the nearest colour seen before, the station that showed it) for the patch
-        of ``radius`` pixels around (x, y); None before any station was remembered."""
-        if not self.stations:
-            return None
-        rows, cols = mosaic.shape[:2]
-        r = max(1, round(radius * 0.7))  # the patch's core, not its rim
-        x0, x1 = max(0, round(x) - r), min(cols, round(x) + r + 1)
-        y0, y1 = max(0, round(y) - r), min(rows, round(y) + r + 1)
-        colour = _lab(mosaic[y0:y1, x0:x1]).mean(axis=0)
-        best = min(
-            (float(np.linalg.norm(palette - colour, axis=1).min()), name)
-            for name, palette in self.stations
-        )
-        return best
+        frame = self._frame(previous)
+        self.stations.append(_Station(station_id, frame, geometry, tuple(points), centres))
 
     def palettes(self) -> list[np.ndarray]:
         """The earlier stations' palettes, (PALETTE, 3) Lab each, oldest first."""
-        return [palette for _, palette in self.stations]
+        return [s.palette for s in self.stations]
 
     def recall(
-        self, points: list[InterestPoint], radii: dict[int, float], mosaic: np.ndarray
+        self,
+        points: list[InterestPoint],
+        mosaic: np.ndarray,
+        geometry: MosaicGeometry,
+        previous: Previous | None,
+        archive: Archive,
     ) -> list[InterestPoint]:
-        """Each point (of pixel radius ``radii[rank]``) against what the session's earlier
-        stations showed: its novelty, and a clause for its explanation ("new since
-        st01-300m" or "seen at st02-60m")."""
+        """The ``points`` of a station (its ``mosaic`` shot as ``geometry``, aimed from
+        ``previous``) judged against what the session's earlier stations saw there (module
+        doc): each with its novelty and its explanation's clause ("#1 at st01-300m", "seen at
+        st01-300m" or "new since st01-300m"). Unchanged at a session's first station, and a
+        point that is no target (``target`` false)."""
         if not self.stations:
             return points
-        first = self.stations[0][0]
+        frame, lab = self._frame(previous), lab_image(mosaic)
         out = []
         for p in points:
-            found = self.novelty(mosaic, p.x, p.y, radii.get(p.rank, 4.0))
-            why = "; ".join(part for part in (p.why, phrase(found, first)) if part)
-            out.append(replace(p, why=why, novelty=round(found[0], 2) if found else None))
+            if not p.target:  # no further target: nothing to call new or seen
+                out.append(p)
+                continue
+            novelty, clause = self._judge(p, frame, lab, geometry, archive)
+            why = "; ".join(part for part in (p.why, clause) if part)
+            out.append(replace(p, why=why, novelty=round(novelty, 3)))
         return out
 
     def prior(
@@ -134,14 +236,77 @@ class SessionMemory:
 
     def clear(self) -> None:
         self.stations.clear()
+        self.mosaics.clear()
 
+    def _frame(self, previous: Previous | None) -> Frame:
+        """Where a station aimed from ``previous`` stands: walked from that station, else
+        where the last station stood (shot again without a new aim), else the reference."""
+        known = {s.id: s.frame for s in self.stations}
+        if previous is not None and previous.station in known:
+            return known[previous.station].walked(previous.target, previous.walk)
+        return self.stations[-1].frame if self.stations else Frame()
 
-def phrase(novelty: tuple[float, str] | None, first: str) -> str:
-    """The explanation's clause: ``new since st01-300m`` or ``seen at st01-300m``."""
-    if novelty is None:
-        return ""
-    delta, station = novelty
-    return f"new since {first}" if delta > NEW_DE else f"seen at {station}"
+    def _judge(
+        self,
+        p: InterestPoint,
+        frame: Frame,
+        lab: np.ndarray,
+        geometry: MosaicGeometry,
+        archive: Archive,
+    ) -> tuple[float, str]:
+        """(novelty, clause) of point ``p`` of a station standing at ``frame``."""
+        radius = p.radius_deg or geometry.degrees_per_pixel
+        places = [
+            (s, *frame.into(s.frame, p.pan, p.tilt), radius * frame.scale / s.frame.scale)
+            for s in self.stations
+        ]
+        for s, pan, tilt, there in places:
+            rank = s.ranked(pan, tilt, there)
+            if rank is not None:
+                return 0.0, f"#{rank} at {s.name}"
+        now = distinctness(lab, p.x, p.y, radius / geometry.degrees_per_pixel)
+        best: tuple[float, str] | None = None
+        for s, pan, tilt, there in places:
+            then = self._seen(s, pan, tilt, there, archive)
+            if then is not None:
+                share = min(1.0, max(0.0, (now - then) / max(now, DISTINCT)))
+                if best is None or share < best[0]:
+                    best = (share, s.name)
+        if best is None or best[0] > NEW:
+            return (1.0 if best is None else best[0]), f"new since {self.stations[0].name}"
+        return best[0], f"seen at {best[1]}"
+
+    def _seen(
+        self, s: _Station, pan: float, tilt: float, radius: float, archive: Archive
+    ) -> float | None:
+        """How distinct station ``s`` saw the patch of ``radius`` degrees at (pan, tilt) (its
+        directions): the best within half a radius; None where it did not look, could not
+        resolve the patch or its mosaic cannot be read."""
+        pixels = radius / s.geometry.degrees_per_pixel
+        place = s.geometry.to_mosaic(pan, tilt)
+        if pixels < _RESOLVE or place is None:
+            return None
+        lab = self._mosaic(s, archive)
+        if lab is None:
+            return None
+        x, y, step = place[0] - 0.5, place[1] - 0.5, 0.5 * pixels
+        return max(
+            distinctness(lab, x + dx * step, y + dy * step, pixels)
+            for dx in (-1, 0, 1)
+            for dy in (-1, 0, 1)
+        )
+
+    def _mosaic(self, s: _Station, archive: Archive) -> np.ndarray | None:
+        """Station ``s``'s mosaic in Lab, (M, N, 3): read from the archive at its first use
+        in the session (None, and logged, when it cannot be read)."""
+        if s.id not in self.mosaics:
+            try:
+                bgr = station_image(archive, s.id, "mosaic.png", cv2.IMREAD_COLOR, "mosaic")
+                self.mosaics[s.id] = lab_image(bgr)
+            except (ArchiveError, cv2.error) as exc:
+                _LOGGER.warning("memory: station %s not judged against: %s", s.id, exc)
+                self.mosaics[s.id] = None
+        return self.mosaics[s.id]
 
 
 _PRIOR = 96

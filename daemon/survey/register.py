@@ -16,6 +16,7 @@ correlation reached says how much to trust it.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import cv2
@@ -25,10 +26,37 @@ from ..archive import Archive, ArchiveError
 from ..pointing.geometry import MosaicGeometry, pixel_centre
 from .approach import Previous
 
-__all__ = ["carry", "register", "register_to"]
+__all__ = ["Frame", "carry", "register", "register_to"]
 
 _WORK = 256
 """Longest side of the copies registered (coarse structure is what carries across)."""
+
+
+@dataclass(frozen=True)
+class Frame:
+    """Where a station's directions lie in a reference station's (the session's first):
+    ``reference = offset + scale x direction``, pan and tilt alike. Walking ``k`` times
+    closer to a target divides the spread about it by ``k`` (the prediction above, which
+    :func:`carry` applies pixel by pixel); zooming or staying put changes nothing. So a
+    chain of walks (300 -> 60 -> 10 m) composes into one such map, and any two stations of
+    it map into each other."""
+
+    scale: float = 1.0
+    pan: float = 0.0
+    tilt: float = 0.0
+
+    def walked(self, target: tuple[float, float], walk: float) -> Frame:
+        """The frame of a station aimed from this one at ``target``, ``walk`` times closer:
+        it sees direction d where this one saw ``target + (d - target) / walk``."""
+        spread = self.scale * (1.0 - 1.0 / walk)
+        return Frame(
+            self.scale / walk, self.pan + spread * target[0], self.tilt + spread * target[1]
+        )
+
+    def into(self, other: Frame, pan: float, tilt: float) -> tuple[float, float]:
+        """The direction in which the station of frame ``other`` saw this one's (pan, tilt)."""
+        ref_pan, ref_tilt = self.pan + self.scale * pan, self.tilt + self.scale * tilt
+        return (ref_pan - other.pan) / other.scale, (ref_tilt - other.tilt) / other.scale
 
 
 def carry(

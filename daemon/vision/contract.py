@@ -28,6 +28,9 @@ class ResultPoint:
     description: str
     summary: str
     explanation: list[dict[str, Any]]
+    target: bool = True
+    """False: "no further target", the score cannot be told from the view's background
+    (``peaks.mark_background``); the point is kept, in rank order, and marked."""
 
 
 @dataclass(frozen=True)

@@ -26,6 +26,7 @@ __all__ = [
     "colour_name",
     "describe",
     "explain_points",
+    "percent",
     "plain_lines",
 ]
 
@@ -56,6 +57,29 @@ def colour_name(hue_deg: float, saturation: float, intensity: float) -> str:
     if name == "yellow" and saturation < 60:
         return "buff"
     return name
+
+
+_ROCK = frozenset({"red", "orange", "yellow", "brown", "buff", "grey", "black", "white"})
+"""The colours a view of rock shows as a whole; another (green, blue, purple) is a plant, the
+sky or a painted object filling the view, not rock."""
+
+
+def percent(share: float) -> str:
+    """A share (0..1) in percent as a reader takes it: never "100" unless it is all, never
+    "0" unless it is none, two significant digits below 10.
+
+    >>> [percent(s) for s in (0.0, 1e-5, 0.00079, 0.042, 0.5, 0.995, 0.9999, 1.0)]
+    ['0', '0.001', '0.079', '4.2', '50', '99.5', '99.99', '100']
+    """
+    pct = 100.0 * share
+    if pct <= 0.0 or pct >= 100.0:
+        return f"{min(max(pct, 0.0), 100.0):.0f}"
+    if pct < 10.0:
+        return f"{max(float(f'{pct:.2g}'), 0.001):g}"
+    digits = 0
+    while digits < 4 and round(pct, digits) >= 100.0:
+        digits += 1
+    return f"{math.floor(pct * 10**digits) / 10**digits:.{digits}f}" if digits else f"{pct:.0f}"
 
 
 _ANGLES = np.arange(256) * (2 * math.pi / 256.0)
@@ -90,8 +114,12 @@ def plain_lines(points: list[InterestPoint], hsi: HSIPlanes) -> list[str]:
     >>> pts = [InterestPoint(1, 44.5, 44.5, 1.0, 5.0), InterestPoint(2, 14.5, 84.5, 1.0, 5.0)]
     >>> for line in plain_lines(pts, rgb_to_hsi(img)):
     ...     print(line)
-    green patch on brown rock; 0.79 % of the area
-    dark brown patch, darker than 99 % of the image; 0.79 % of the area
+    green patch on brown rock; 0.8 % of the area
+    dark brown patch, darker than 99 % of the image; 0.8 % of the area
+    >>> leaf = np.full((100, 100, 3), (40, 150, 110), np.uint8)   # a plant fills the view
+    >>> leaf[40:50, 40:50] = (60, 100, 140)
+    >>> plain_lines(pts[:1], rgb_to_hsi(leaf))
+    ['brown patch in a mostly green view; 0.8 % of the area']
     """
     rows, cols = hsi.i.shape
     step = max(1, math.isqrt(rows * cols // _SAMPLE))  # the whole image's colour and tones
@@ -112,20 +140,22 @@ def plain_lines(points: list[InterestPoint], hsi: HSIPlanes) -> list[str]:
         level = _median(i)
         darker = 1.0 - below[int(level) + 1] / below[-1]  # share strictly brighter
         brighter = below[int(level)] / below[-1]  # share strictly darker
-        area = 100.0 * math.pi * radius**2 / (rows * cols)
+        area = 100.0 * inside.sum() / (rows * cols)  # what the patch covers of this view
         kind = "patch" if area >= 0.2 else "spot"
         tone, versus = "", ""
         if darker >= 0.8:
-            tone, versus = "dark ", f", darker than {100 * darker:.0f} % of the image"
+            tone, versus = "dark ", f", darker than {percent(darker)} % of the image"
         elif brighter >= 0.8:
-            tone, versus = "bright ", f", brighter than {100 * brighter:.0f} % of the image"
+            tone, versus = "bright ", f", brighter than {percent(brighter)} % of the image"
         if here != whole:
-            head = f"{tone}{here} {kind} on {whole} rock"
+            # Only a rock colour is called rock: at 10 m a plant can fill the view.
+            ground = f"on {whole} rock" if whole in _ROCK else f"in a mostly {whole} view"
+            head = f"{tone}{here} {kind} {ground}"
         elif tone:
             head = f"{tone}{here} {kind}{versus}"
         else:
             head = f"{here} {kind} of unusual tone or texture"
-        lines.append(f"{head}; {area:.2g} % of the area")
+        lines.append(f"{head}; {percent(area / 100)} % of the area")
     return lines
 
 
@@ -282,7 +312,7 @@ def clauses(explanation: list[dict]) -> str:
     shaded = any(e["plane"] == "shade" and e["likelihood"] >= _SHADE for e in explanation)
     for e in explanation:
         if e["plane"] == "texture" and e["rarer_than"] >= _RARE_TEXTURE:
-            words += f"; texture rarer than {100 * e['rarer_than']:.0f} % of the image"
+            words += f"; texture rarer than {percent(e['rarer_than'])} % of the image"
         elif e["plane"] == "shade" and e["likelihood"] >= _SHADE:
             words += "; probably in shade"
         elif e["plane"] == "layer" and e["share"] >= _LAYER:
@@ -331,13 +361,13 @@ def describe(explanation: list[dict]) -> str:
         unit = "deg" if e["plane"] == "H" and not isinstance(e["value"], str) else ""
         parts.append(
             f"{e['plane']} class {e['class']}/{e['classes']} ({value}{unit}, "
-            f"{100 * e['area_fraction']:.2g}% of image) +{e['contribution']:.1f}"
+            f"{percent(e['area_fraction'])}% of image) +{e['contribution']:.1f}"
         )
     summary = "; ".join(parts) if parts else "no segmented class nearby"
     texture = [e for e in explanation if e["plane"] == "texture"]
     if texture:
-        rarity, share = texture[0]["rarity"], 100 * texture[0]["rarer_than"]
-        summary += f"; texture rarity {rarity:.3g} (rarer than {share:.0f}% of image)"
+        rarity, share = texture[0]["rarity"], percent(texture[0]["rarer_than"])
+        summary += f"; texture rarity {rarity:.3g} (rarer than {share}% of image)"
     line = [e for e in explanation if e["plane"] == "line"]
     if line:
         summary += f"; bar {line[0]['contrast']:+.3g} robust sd, line {line[0]['units']:.2f} unit"

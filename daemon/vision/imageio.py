@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import struct
+import sys
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import cv2
@@ -37,10 +40,46 @@ def _png_size(head: bytes) -> tuple[int, int] | None:
     return None
 
 
+def _truncated(data: bytes) -> str | None:
+    r"""Which format the file claims and ends before finishing, if so: a cut-off copy or
+    download decodes to grey (JPEG) or not at all (PNG), and should be called what it is.
+
+    >>> _truncated(b"\xff\xd8\xff\xe0 ... "), _truncated(b"\xff\xd8 ... \xff\xd9\x00")
+    ('JPEG', None)
+    """
+    if data[:2] == b"\xff\xd8" and b"\xff\xd9" not in data[-64:]:
+        return "JPEG"  # no end-of-image marker (some writers pad after it)
+    if data[:8] == b"\x89PNG\r\n\x1a\n" and b"IEND" not in data[-64:]:
+        return "PNG"  # no closing IEND chunk
+    return None
+
+
+@contextlib.contextmanager
+def _native_stderr() -> Iterator[list[str]]:
+    """The lines C libraries write to file descriptor 2 meanwhile: libjpeg and libpng say
+    "Corrupt JPEG data" or "libpng error" there, not to OpenCV's caller, and an unattributed
+    line on the console names no file. Captured, they become the file's error."""
+    said: list[str] = []
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with tempfile.TemporaryFile() as tmp:
+            os.dup2(tmp.fileno(), 2)
+            try:
+                yield said
+            finally:
+                os.dup2(saved, 2)
+                tmp.seek(0)
+                said.extend(line for line in tmp.read().decode(errors="replace").splitlines())
+    finally:
+        os.close(saved)
+
+
 def read_image(path: str | os.PathLike[str], max_pixels: int = MAX_PIXELS) -> np.ndarray:
     """Decode an image file as-is (any depth and channel count OpenCV reads).
 
-    Raises ImageError for a missing, unreadable, empty, non-image or oversized file.
+    Raises ImageError for a missing, unreadable, empty, truncated, corrupt, non-image or
+    oversized file.
     """
     p = Path(path)
     try:
@@ -56,10 +95,16 @@ def read_image(path: str | os.PathLike[str], max_pixels: int = MAX_PIXELS) -> np
     size = _png_size(data[:24])
     if size and size[0] * size[1] > max_pixels:
         raise ImageError(f"{p}: {size[0]}x{size[1]} is too large (limit {max_pixels} pixels)")
+    cut = _truncated(data)
+    if cut:
+        raise ImageError(f"{p}: truncated {cut} file: it ends before the image does")
     try:
-        img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+        with _native_stderr() as said:
+            img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     except cv2.error as exc:
         raise ImageError(f"{p}: cannot decode: {str(exc).strip().splitlines()[-1]}") from None
+    if said:  # decoded with damage (a flipped bit) or not at all: the library says why
+        raise ImageError(f"{p}: corrupt image data: {'; '.join(said)}")
     if img is None or img.size == 0:
         raise ImageError(f"{p}: not an image in a format OpenCV can read")
     if img.shape[0] * img.shape[1] > max_pixels:

@@ -73,6 +73,9 @@ class InterestPoint:
     score: float
     radius: float = 0.0
     """The size of what the point found (analysed pixels): no other point lies within it."""
+    target: bool = True
+    """False when its score cannot be told from the view's background
+    (``peaks.mark_background``): "no further target", kept and marked."""
 
 
 def _factor(sigma: float, shape: tuple[int, int], exact: bool) -> int:

@@ -79,7 +79,9 @@ def input_points(shape: tuple[int, ...], res: Analysis) -> list[InterestPoint]:
     arows, acols = res.hsi.i.shape
     sx, sy = shape[1] / acols, shape[0] / arows
     return [
-        InterestPoint(p.rank, _to_input(p.x, sx), _to_input(p.y, sy), p.score, p.radius * sx)
+        InterestPoint(
+            p.rank, _to_input(p.x, sx), _to_input(p.y, sy), p.score, p.radius * sx, p.target
+        )
         for p in res.points
     ]
 
@@ -101,6 +103,7 @@ def result_document(
             line,
             describe(expl),
             expl,
+            p.target,
         )
         for p, expl, line in zip(found, res.explanations, res.descriptions, strict=True)
     )
@@ -141,9 +144,14 @@ def write_products(
         put(f"plane_{low}.png", plane)
         put(f"segmentation_{low}.png", render.segmentation_image(seg))
         put(f"cooccurrence_{low}.png", render.cooccurrence_plot(seg))
-        put(f"uncommon_{low}.png", render.grey_ramp(uncommon_map(seg, params), vmax=8.0))
+        umap = uncommon_map(seg, params)
+        put(f"uncommon_{low}.png", render.grey_ramp(umap, vmax=8.0))
+        # the same maps as figures, each with its scale: the files above are data
+        put(f"figure_segmentation_{low}.png", render.class_figure(seg, f"segmentation {name}"))
+        put(f"figure_uncommon_{low}.png", render.map_figure(umap, f"uncommon {name}", 8.0))
     interest = np.maximum(res.interest.full(), 0.0)
     put("interest.png", render.grey_ramp(interest))
+    put("figure_interest.png", render.map_figure(interest, "interest"))
     scale = bgr.shape[1] / res.hsi.i.shape[1]
     if scale == 1.0:
         put("overlay.png", render.overlay(bgr, res.points))

@@ -15,13 +15,17 @@ from .interest import InterestMap, InterestPoint, interest_map, summed_uncommon
 from .layers import discount_texture, discount_uncommon, layer_share
 from .lines import line_rarity, line_shade
 from .params import VisionParams
-from .peaks import find_points
+from .peaks import find_points, mark_background
 from .segment import segment_plane
 from .shadow import shadow_likelihood
 from .texture import texture_rarity
 from .uncommon import uncommon_map
 
-__all__ = ["Analysis", "analyze"]
+__all__ = ["NO_TARGET", "Analysis", "analyze"]
+
+NO_TARGET = "no further target: indistinguishable from the view's background"
+"""The description of a point whose score cannot be told from the view's background
+(``peaks.mark_background``), in place of a confident account of what it found."""
 
 
 @dataclass(frozen=True)
@@ -34,7 +38,8 @@ class Analysis:
     points: list[InterestPoint]
     explanations: list[list[dict]]
     descriptions: list[str]
-    """One plain-language line per point (``explain.plain_lines``)."""
+    """One plain-language line per point (``explain.plain_lines``); :data:`NO_TARGET` for
+    a point marked as background."""
     params: VisionParams
     timings_ms: dict[str, float] = field(default_factory=dict)
 
@@ -55,7 +60,9 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
     Returns
     -------
     Analysis
-        Points are best first, in (x = column, y = row) pixels of ``bgr``.
+        Points are best first, in (x = column, y = row) pixels of ``bgr``; those whose
+        score cannot be told from the view's background are kept, marked ``target=False``
+        (``peaks.mark_background``).
 
     Examples
     --------
@@ -118,7 +125,7 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
     if prior is not None:
         prior = _fit_prior(prior, bgr.shape[:2])
     imap = interest_map(segs, params, total, texture, prior=prior, line=lines)
-    points = find_points(imap, params)
+    points = mark_background(imap, find_points(imap, params))
     t3 = time.perf_counter()
     timings["interest"] = (t3 - t2) * 1e3
     explanations = explain_points(
@@ -133,8 +140,8 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
         interest=imap,
     )
     descriptions = [
-        line + clauses(expl)
-        for line, expl in zip(plain_lines(points, hsi), explanations, strict=True)
+        line + clauses(expl) if p.target else NO_TARGET
+        for p, line, expl in zip(points, plain_lines(points, hsi), explanations, strict=True)
     ]
     timings["explain"] = (time.perf_counter() - t3) * 1e3
     timings["total"] = (time.perf_counter() - t0) * 1e3

@@ -87,7 +87,8 @@ async def test_motion_needs_control_and_halt_needs_none(commands) -> None:
     assert (await _ask(handler, "bob", PtuGoto(0.0, 0.0))).result == "REJECTED"
     assert (await _ask(handler, "bob", PtuHalt())).ok  # anyone may stop the head
     limit = await _ask(handler, "alice", PtuGoto(200.0, 0.0))
-    assert limit.result == "LIMIT"
+    assert limit.result == "LIMIT" and limit.detail.startswith("ptu/goto: pan 200.000 deg")
+    assert "PP" not in limit.detail  # the unit's command code is for the log
 
 
 async def test_forged_identity_and_malformed_requests_are_refused(commands) -> None:

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cyborg.daemon.__main__ import SIM_CAMERA, SIM_PTU, _simulated
 from cyborg.daemon.archive import Archive, ArchiveError
 from cyborg.daemon.config import ConfigError, load
 from cyborg.daemon.rig import Control
@@ -220,3 +221,39 @@ def test_archive_files_are_readable_by_the_group(tmp_path: Path) -> None:
     target = tmp_path / "a" / "result.json"
     subprocess.run([sys.executable, "-c", code, str(target)], check=True)
     assert target.stat().st_mode & 0o777 == 0o640
+
+
+def test_sim_keeps_what_the_config_file_chose(tmp_path: Path) -> None:
+    """``cyborgd run --sim --config site.toml``: the simulation fills in only what neither a
+    flag nor the file chose; the file's archive, PTU and camera are kept."""
+    path = _toml(
+        tmp_path,
+        f"""
+archive = "{tmp_path / "site-archive"}"
+ptu = "pty://?model=D46-70"
+[camera]
+url = "sim://outcrop?seed=9&hfov=20"
+""",
+    )
+    kept = _simulated(load(path))
+    assert kept.ptu == "pty://?model=D46-70" and kept.camera.url.endswith("seed=9&hfov=20")
+    assert kept.archive == tmp_path / "site-archive" and kept.survey.simulate_approach
+    bare = tmp_path / "bare"
+    bare.mkdir()
+    filled = _simulated(load(_toml(bare, "[survey]\nrows = 1")))
+    assert (filled.ptu, filled.camera.url, filled.archive) == (SIM_PTU, SIM_CAMERA, Path("out/rig"))
+    proc = subprocess.Popen(
+        [
+            *(sys.executable, "-m", "cyborg.daemon", "run", "--sim", "--config", str(path)),
+            *("--listen", "tcp/127.0.0.1:0", "--ptu", "pty://?model=D46-17&time_scale=50"),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    try:
+        ready = json.loads(proc.stdout.readline())
+        assert ready["archive"] == str((tmp_path / "site-archive").resolve())
+    finally:
+        proc.terminate()
+        proc.wait(30)

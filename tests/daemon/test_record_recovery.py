@@ -47,7 +47,7 @@ def _written(folder: Path, batches: int = 3, per_batch: int = 40) -> Path:
             log.put(
                 (
                     "/a" if n % 3 else "/b",
-                    "cyborg.t",
+                    "cyborg.event",
                     n,
                     b'{"n": %d, "pad": "%s"}' % (n, b"x" * 900),
                 )
@@ -64,9 +64,9 @@ def test_queued_messages_reach_the_disk_in_whole_chunks_without_more_coming(
     log = SessionLog(tmp_path / "session.mcap", META)
     try:
         for i in range(5):
-            log.put(("/a", "cyborg.t", i, b'{"i": %d}' % i))
+            log.put(("/a", "cyborg.event", i, b'{"i": %d}' % i))
         assert [m.log_time for m in _stream_until(log.path, 5)] == list(range(5))
-        log.put(("/a", "cyborg.t", 5, b'{"i": 5}'))
+        log.put(("/a", "cyborg.event", 5, b'{"i": 5}'))
         log.end_chunk()  # a station boundary
         assert len(_stream_until(log.path, 6)) == 6
     finally:

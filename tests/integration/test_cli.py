@@ -51,6 +51,7 @@ async def test_scripts_drive_a_station_and_fetch_its_products(
     assert moved["tilt"] == pytest.approx(-5, abs=0.06)
     code, limit, err = await cyborg(router, "goto", "170", "0")
     assert code == 1 and limit["result"] == "LIMIT" and "limit" in err.lower()
+    assert err.count("ptu/goto") == 1 and "PP" not in err, err  # said once, no unit code
     code, bad, err = await cyborg(router, "goto", "1000", "0")
     assert code == 2 and "pan 1000" in bad["error"]
 
@@ -93,6 +94,7 @@ async def test_scripts_drive_a_station_and_fetch_its_products(
         router, "survey", "--rows", "1", "--cols", "2", "--set", "blurr=8"
     )
     assert code == 1 and refused["result"] == "REJECTED" and "did you mean blur?" in err
+    assert err.count("survey/start") == 1, err  # the verb said once
     code, one, err = await cyborg(
         router, "survey", "--rows", "1", "--cols", "2", "--downsample", "4", "--set", "top_n=1"
     )

@@ -24,9 +24,10 @@ LINK = ("--rig", "itest", "--name", "script")
 
 
 async def _surveying(router: str) -> asyncio.subprocess.Process:
-    """``cyborg survey --json`` of a 3×4 mosaic, returned once its first tile is reported."""
+    """``cyborg survey --json`` of a 2×3 mosaic (the most the simulated cliff holds),
+    returned once its first tile is reported."""
     proc = await asyncio.create_subprocess_exec(
-        *(sys.executable, "-m", "cyborg.clients", "survey", "--rows", "3", "--cols", "4", "--json"),
+        *(sys.executable, "-m", "cyborg.clients", "survey", "--rows", "2", "--cols", "3", "--json"),
         *(*LINK, "--connect", router, "--timeout", "120"),
         stdout=asyncio.subprocess.PIPE,
         stderr=asyncio.subprocess.PIPE,

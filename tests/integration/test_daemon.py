@@ -400,7 +400,8 @@ async def test_daemon_killed_mid_analysis_leaves_no_worker_and_an_incomplete_sta
 async def test_a_full_disk_fails_the_station_and_loses_nothing_written(
     start_daemon, client: RigClient, small_disk: Path
 ) -> None:
-    daemon = await start_daemon(archive=small_disk / "archive")
+    world = {"camera": {"url": "sim://world?seed=3&hfov=30"}}  # no edge for 240 deg of pan
+    daemon = await start_daemon(archive=small_disk / "archive", sections=world)
     await client.wait_alive()
     progress = client.subscribe(client.keys.progress, SurveyProgress)
     events = client.subscribe(client.keys.events, Event)

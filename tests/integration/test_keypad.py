@@ -29,10 +29,12 @@ RIGHT, LEFT = b"\x1bOC", b"\x1bOD"  # xterm's arrows in keypad-transmit mode (cu
 class Terminal:
     """A child process on a pty, its screen decoded by a terminal emulator."""
 
-    def __init__(self, argv: list[str], rows: int = 24, cols: int = 80) -> None:
+    def __init__(
+        self, argv: list[str], rows: int = 24, cols: int = 80, locale: str = "C.UTF-8"
+    ) -> None:
         master, slave = pty.openpty()
         fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", rows, cols, 0, 0))
-        env = {**os.environ, "TERM": "xterm", "LANG": "C.UTF-8", "LC_ALL": "C.UTF-8"}
+        env = {**os.environ, "TERM": "xterm", "LANG": locale, "LC_ALL": locale}
         self.proc = subprocess.Popen(
             argv, stdin=slave, stdout=slave, stderr=slave, env=env, start_new_session=True
         )

@@ -4,6 +4,7 @@ a router: live frames, a survey started from the page, clicks that re-point the 
 from __future__ import annotations
 
 import asyncio
+import math
 from collections.abc import AsyncIterator
 from pathlib import Path
 
@@ -101,7 +102,8 @@ async def test_operator_page_surveys_and_repoints(
     assert abs(here.tilt - best["tilt"]) < deg_per_css_px + 0.06
 
     # A click a quarter of the width right of the live view's centre turns the head by
-    # atan(0.5 tan 15 deg) = 7.63 deg (a pinhole with a 30 deg field of view).
+    # atan(0.5 tan 15 deg / cos tilt) (a pinhole with a 30 deg field of view, tilted): 7.63
+    # deg level.
     await asyncio.sleep(0.5)  # a frame taken at the new pose is on the canvas
     shown = await asyncio.to_thread(js, "return window.cyborgStats().last;")
     width = await asyncio.to_thread(
@@ -111,7 +113,10 @@ async def test_operator_page_surveys_and_repoints(
     await asyncio.to_thread(browser.click, "#live", width / 4, 0)
     await asyncio.sleep(0.3)
     here = await _still(states)
-    assert here.pan - shown["pan"] == pytest.approx(7.63, abs=0.15)
+    turn = math.degrees(
+        math.atan(0.5 * math.tan(math.radians(15)) / math.cos(math.radians(shown["tilt"])))
+    )
+    assert here.pan - shown["pan"] == pytest.approx(turn, abs=0.15)
 
     # Halt from the page; the archive lists the session.
     await asyncio.to_thread(browser.click, "#halt")

@@ -1,7 +1,7 @@
-"""The session log (``session.mcap``) written by a real daemon, read back with the mcap
-library's own stream reader, checked against Foxglove's JSON schemas (vendored in
-``protocol/foxglove``, checked here by a small walker of their ``required`` and ``type``
-keys), and replayed onto the bus for the keypad's view."""
+"""The session log (``session.mcap``) written by a real daemon, read back with the official
+``mcap`` reader, every message checked against its channel's schema (Foxglove's, vendored in
+``protocol/foxglove``; the protocol's own, derived from its classes), and replayed onto the
+bus for the keypad's view."""
 
 from __future__ import annotations
 
@@ -11,7 +11,6 @@ import json
 import signal
 from collections import Counter
 from pathlib import Path
-from typing import Any
 
 import pytest
 
@@ -19,38 +18,21 @@ from cyborg.clients.replay import read_log, replay
 from cyborg.clients.rigclient import RigClient, run_station
 from cyborg.clients.watch import RigWatch
 from cyborg.protocol import recording as rec
-from cyborg.protocol.messages import Chip, InterestResult, SurveyProgress, SurveyStart, TakeControl
+from cyborg.protocol.messages import (
+    Chip,
+    ChooseTarget,
+    InterestResult,
+    PtuHalt,
+    SurveyCancel,
+    SurveyProgress,
+    SurveyStart,
+    TakeControl,
+)
 from cyborg.protocol.transport import Transport
 from cyborg.protocol.version import PROTOCOL_MAJOR, PROTOCOL_MINOR
+from tests.integration.logcheck import Checked
 
 pytestmark = pytest.mark.timeout(180)
-
-_TYPES = {
-    "object": dict,
-    "array": list,
-    "string": str,
-    "integer": int,
-    "number": (int, float),
-    "boolean": bool,
-}
-
-
-def _valid(doc: Any, schema: dict, where: str = "") -> None:
-    """The parts of JSON Schema Foxglove's schemas use: type, required, properties, items."""
-    kind = schema.get("type")
-    if kind:
-        assert isinstance(doc, _TYPES[kind]) and not (
-            kind in ("integer", "number") and isinstance(doc, bool)
-        ), f"{where}: {doc!r} is not {kind}"
-    if isinstance(doc, dict):
-        for name in schema.get("required", []):
-            assert name in doc, f"{where}: missing {name}"
-        for name, sub in schema.get("properties", {}).items():
-            if name in doc:
-                _valid(doc[name], sub, f"{where}.{name}")
-    if isinstance(doc, list) and "items" in schema:
-        for i, item in enumerate(doc):
-            _valid(item, schema["items"], f"{where}[{i}]")
 
 
 async def _surveyed(start_daemon, client: RigClient) -> tuple[Path, InterestResult, list[Chip]]:
@@ -86,10 +68,10 @@ async def test_the_session_log_holds_the_station(start_daemon, client: RigClient
     assert counts[rec.TOPICS["cam.frame"]] == counts["/camera/live"] > 0  # 1 fps, unwatched
     times = [m.log_time for m in messages]
     assert times == sorted(times)
-    # Every Foxglove message is valid against its schema.
-    for m in messages:
-        if m.schema.startswith("foxglove."):
-            _valid(json.loads(m.data), json.loads(rec.foxglove_schema(m.schema[9:])), m.topic)
+    # The official reader opens it; every message fits its schema, each schema stored once.
+    checked = Checked(session / "session.mcap")
+    assert len(checked.messages) == len(messages)
+    assert len(set(checked.schemas)) == len(checked.schemas)
     # Images are byte-identical: the mosaic with the archive's, the chips with the bus's.
     (mosaic,) = [m for m in messages if m.topic == rec.MOSAIC]
     png = base64.b64decode(json.loads(mosaic.data)["data"])
@@ -104,8 +86,65 @@ async def test_the_session_log_holds_the_station(start_daemon, client: RigClient
     (notes,) = [json.loads(m.data) for m in messages if m.topic == rec.ANNOTATIONS]
     stamp = json.loads(mosaic.data)["timestamp"]
     assert all(c["timestamp"] == stamp for c in notes["circles"])
+    targets = [p for p in result.points if p.target]
     centres = [(c["position"]["x"], c["position"]["y"]) for c in notes["circles"]]
-    assert centres == [(p.x + 0.5, p.y + 0.5) for p in result.points]
+    assert centres == [(p.x + 0.5, p.y + 0.5) for p in targets]
+    # Short labels; the whole reason is the annotation's metadata.
+    for text, p in zip(notes["texts"], targets, strict=True):
+        assert text["text"] == rec.label(p) and len(text["text"]) <= rec.LABEL_CHARS + 4
+        assert {"key": "why", "value": p.why} in text["metadata"]
+
+
+SITE = {"name": "Rivas Vaciamadrid", "latitude": 40.331, "longitude": -3.517, "altitude": 612.5}
+
+
+async def test_a_walk_logs_where_each_station_stood_and_every_decision(
+    start_daemon, client: RigClient
+) -> None:
+    """With [site] set: two stations walked and chosen (300, 60 m), a third halted, a
+    fourth cancelled. The log has a LocationFix per station, where its manifest places
+    it, the site in its metadata, and each choice, the HALT and both incomplete stations
+    in /log, with who."""
+    daemon = await start_daemon(sections={"site": SITE | {"heading": 350.0}})
+    await client.wait_alive()
+    progress = client.subscribe(client.keys.progress, SurveyProgress)
+    results = client.subscribe(client.keys.result, InterestResult)
+    await client.command(TakeControl())
+    stations = []
+    for _ in range(2):
+        result = await run_station(client, progress, results, SurveyStart(rows=1, cols=2))
+        await client.command(ChooseTarget(result.station, 1))
+        stations.append(result.station)
+    for stop in (PtuHalt(), SurveyCancel()):
+        station = (await client.command(SurveyStart(rows=2, cols=3))).detail
+        stations.append(station)
+        async with asyncio.timeout(60):
+            while (p := await progress.get()).station != station or p.stage != "tiles":
+                pass
+        await client.command(stop)  # mid-mosaic: six tiles, analysis and chips to go
+        while (p := await progress.get()).station != station or p.stage != "incomplete":
+            pass
+    assert await daemon.stop() == 0
+    archive = Path(daemon.ready["archive"])
+    sites = [json.loads((archive / s / "manifest.json").read_text())["site"] for s in stations]
+    log = Checked(archive / stations[0].split("/")[0] / "session.mcap")
+
+    fixes = log.on(rec.LOCATION)
+    assert [f["metadata"][0] for f in fixes] == [{"key": "station", "value": s} for s in stations]
+    for fix, site in zip(fixes, sites, strict=True):
+        assert (fix["latitude"], fix["longitude"]) == (site["latitude"], site["longitude"])
+        assert {"key": "source", "value": site["source"]} in fix["metadata"]
+        assert fix["position_covariance_type"] == rec.COVARIANCE_UNKNOWN
+    assert fixes[0]["altitude"] == 612.5 and sites[0]["source"] == "config"
+    assert log.metadata["site"] == {"station": stations[0]} | rec.site_metadata(sites[0])
+    assert log.metadata["site"]["latitude"] == "40.331"
+
+    said = [doc["message"] for doc in log.on(rec.LOG)]
+    for station in stations[:2]:
+        assert any(f"choice by tester at {station}: target 1 chosen" in t for t in said), said
+    halted = said.index(f"station {stations[2]} incomplete: halted by tester")
+    assert said.index("HALT from tester") < halted
+    assert f"station {stations[3]} incomplete: cancelled by tester" in said
 
 
 async def test_replay_drives_the_keypad_view_to_the_recorded_result(

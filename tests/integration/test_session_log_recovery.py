@@ -66,7 +66,7 @@ async def test_a_log_cut_mid_station_is_recovered_at_the_next_start(
 
     replay = await asyncio.create_subprocess_exec(
         *(sys.executable, "-m", "cyborg.clients", "replay", str(log.parent), "--connect", router),
-        *("--as-rig", "replayed", "--speed", "50"),
+        *("--as-rig", "replayed", "--speed", "50", "--once"),
         stdout=asyncio.subprocess.PIPE,
         stderr=asyncio.subprocess.PIPE,
     )

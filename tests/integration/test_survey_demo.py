@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -25,8 +26,14 @@ def test_cyborg_demo_runs_three_stations(tmp_path: Path) -> None:
     )
     assert proc.returncode == 0, proc.stderr + proc.stdout
     assert "exit status 0" in proc.stdout
+    # The world with detail at every range, not the cartoon cliff's magnified pixels.
+    assert 'url = "sim://world?' in (out / "cyborgd.toml").read_text()
     manifests = sorted((out / "archive").glob("*/*/manifest.json"))
     assert [m.parent.name for m in manifests] == ["st01-300m", "st02-60m", "st03-10m"]
+    # Each choice announces the next station's mosaic; the next station shoots that one.
+    announced = re.findall(r"next station at \d+ m .*: a (\d+)×(\d+) mosaic", proc.stdout)
+    shot = [json.loads(m.read_text())["plan"] for m in manifests[1:]]
+    assert announced == [(str(p["rows"]), str(p["cols"])) for p in shot], proc.stdout
     for m in manifests:
         doc = json.loads(m.read_text())
         assert doc["status"] == "complete" and doc["choice"]["rank"] == 1

@@ -78,3 +78,23 @@ async def test_a_session_from_the_transport_hands_samples_to_the_loop(tmp_path: 
             assert (data, thread) == (b"kept", threading.get_ident())
             publisher.undeclare()
             sub.undeclare()
+
+
+def test_a_taken_port_and_nobody_listening_are_said_without_rust_sources() -> None:
+    """A port another rig holds, an endpoint nobody listens on: zenoh's own errors, with no
+    ``…/tcp.rs:61`` for the person reading them."""
+    router = open_session(Transport("router", listen=("tcp/127.0.0.1:0",)), ADMIN_SPACE)
+    try:
+        taken = locators(router)[0]
+        for transport in (
+            Transport("router", listen=(taken,)),
+            Transport("client", connect=(taken.rsplit(":", 1)[0] + ":1",)),
+        ):
+            try:
+                open_session(transport).close()
+            except zenoh.ZError as exc:
+                assert ".rs:" not in str(exc) and "/root/" not in str(exc), exc
+            else:
+                raise AssertionError(f"{transport} opened")
+    finally:
+        router.close()

@@ -5,28 +5,56 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 import pytest
 
 from cyborg.daemon.pointing.geometry import CameraModel, MosaicGeometry
-from cyborg.daemon.survey.memory import NEW_DE, SessionMemory, phrase, station_prior
+from cyborg.daemon.survey.memory import (
+    DISTINCT,
+    SessionMemory,
+    distinctness,
+    lab_image,
+    station_prior,
+)
+from cyborg.daemon.survey.register import Frame
 from cyborg.daemon.vision.params import DEFAULT
 from cyborg.daemon.vision.pipeline import analyze
 
 
-def test_new_is_what_no_earlier_station_showed() -> None:
-    memory = SessionMemory()
-    outcrop = np.full((60, 80, 3), (110, 140, 170), np.uint8)  # buff rock
-    assert memory.novelty(outcrop, 10, 10, 4) is None  # nothing seen yet
-    memory.remember("st01-300m", outcrop)
-    closer = outcrop.copy()
-    closer[20:32, 30:42] = (40, 170, 40)  # a plant the walk revealed
-    new = memory.novelty(closer, 36, 26, 6)
-    seen = memory.novelty(closer, 5, 5, 3)
-    assert new is not None and new[0] > NEW_DE and phrase(new, "st01-300m") == "new since st01-300m"
-    assert seen is not None and seen[0] < 1.0 and phrase(seen, "st01-300m") == "seen at st01-300m"
-    memory.clear()
-    assert memory.novelty(closer, 36, 26, 6) is None
+def test_a_chain_of_walks_places_each_station_in_every_earlier_one() -> None:
+    """Known answer: walking 300 -> 60 m (5 times closer) towards (4, -2), then 60 -> 10 m
+    (6 times) towards (5, -1) as the 60 m station saw it: the 10 m view's direction d is
+    where the 60 m station saw 5 + (d - 5) / 6, and the 300 m one saw that again divided by 5
+    about (4, -2); a station shot again without a new aim stands where the last one stood."""
+    first = Frame()
+    sixty = first.walked((4.0, -2.0), 5.0)
+    ten = sixty.walked((5.0, -1.0), 6.0)
+    at_60 = (5.0 + (11.0 - 5.0) / 6, -1.0 + (2.0 + 1.0) / 6)
+    at_300 = (4.0 + (at_60[0] - 4.0) / 5, -2.0 + (at_60[1] + 2.0) / 5)
+    assert ten.into(sixty, 11.0, 2.0) == pytest.approx(at_60)
+    assert ten.into(first, 11.0, 2.0) == pytest.approx(at_300)
+    assert first.into(ten, *at_300) == pytest.approx((11.0, 2.0))
+    assert (ten.scale, first.walked((9.0, 9.0), 1.0)) == (pytest.approx(1 / 30), first)
+
+
+def test_distinct_is_the_core_against_its_surround_at_each_scale() -> None:
+    """Known answer: a plain rock shows nothing; a green disc on it stands out by the colour
+    difference of disc and rock; seen five times further (each pixel the mean of 5 x 5), the
+    same angular patch is a fifth as many pixels and still distinct; a speck a pixel across
+    averages into the rock from afar."""
+    rock, plant = (110, 140, 170), (40, 170, 40)
+    img = np.full((200, 200, 3), rock, np.uint8)
+    assert distinctness(lab_image(img), 100, 100, 10) == pytest.approx(0.0, abs=1e-3)
+    ys, xs = np.mgrid[0:200, 0:200]
+    img[np.hypot(xs - 100, ys - 100) <= 10] = plant
+    img[50, 50] = plant
+    swatch = lab_image(np.array([[rock, plant]], np.uint8))[0]
+    delta = float(np.linalg.norm(swatch[1] - swatch[0]))
+    assert distinctness(lab_image(img), 100, 100, 10) == pytest.approx(delta, rel=1e-3)
+    far = cv2.resize(img, (40, 40), interpolation=cv2.INTER_AREA)
+    assert distinctness(lab_image(far), 19.5, 19.5, 2) > 0.5 * delta
+    assert distinctness(lab_image(far), 9.5, 9.5, 0.2) < DISTINCT < 0.5 * delta
 
 
 def _two_spots(left: int, right: int) -> np.ndarray:
@@ -117,7 +145,7 @@ def test_memory_de_emphasises_colours_common_from_afar() -> None:
     geo = MosaicGeometry(CameraModel(720, 576, 30.0), 1, 2, downsample=4)
     earlier = _two_spots(30, 30)  # buff rock and large dark patches: both main colours
     memory = SessionMemory()
-    memory.remember("st01-300m", earlier)
+    memory.remember("s/st01-300m", earlier, geo, [], None)
     now = _two_spots(12, 12)
     now[60:84, 258:282] = (40, 170, 40)  # the right spot is a plant nobody saw from afar
     prior = station_prior(

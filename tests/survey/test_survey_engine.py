@@ -10,6 +10,7 @@ import errno
 import json
 import re
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -20,6 +21,7 @@ from cyborg.daemon.config import SurveyConfig
 from cyborg.daemon.ptu import open_ptu
 from cyborg.daemon.rig import Rig
 from cyborg.daemon.survey import Survey, SurveyTelemetry
+from cyborg.daemon.survey.memory import NEW
 from cyborg.daemon.worker import VisionWorker
 from cyborg.protocol.messages import ChooseTarget, SurveyStart
 
@@ -40,17 +42,23 @@ class Recorder:
 
 
 @contextlib.asynccontextmanager
-async def _engine(tmp_path: Path, config: SurveyConfig | None = None):
-    """A survey engine on the emulated PTU, the simulated outcrop and a real worker."""
+async def _engine(
+    tmp_path: Path,
+    config: SurveyConfig | None = None,
+    camera: str = "sim://outcrop?seed=3",
+    **where: Any,
+):
+    """A survey engine on the emulated PTU, the simulated outcrop (or ``camera``) and a real
+    worker; ``where`` (orientation, site) says where it stands."""
     ptu = open_ptu("emu://?time_scale=50")
-    rig = Rig(ptu, lambda pose: open_camera("sim://outcrop?seed=3", pose=pose))
+    rig = Rig(ptu, lambda pose: open_camera(camera, pose=pose))
     async with VisionWorker() as worker:
         await ptu.open()
         rec = Recorder()
         archive = Archive(tmp_path / "archive", "t")
         archive.open()
         config = config or SurveyConfig()
-        survey = Survey(rig, worker, archive, config, hfov=30.0, telemetry=rec.telemetry())
+        survey = Survey(rig, worker, archive, config, hfov=30.0, telemetry=rec.telemetry(), **where)
         try:
             yield survey, rec, archive
         finally:
@@ -173,47 +181,70 @@ async def test_a_survey_is_centred_by_decision_not_where_the_head_stopped(engine
     assert (plan["pan0"], plan["tilt0"]) == (10.0, 2.0)
 
 
-async def test_the_next_station_is_aimed_and_sized_by_the_target(engine) -> None:
+async def test_the_next_station_is_aimed_and_sized_by_the_target(tmp_path: Path) -> None:
     """A point carries its angular size; choosing it plans the next mosaic around it (three
     target diameters each way, at most the configured mosaic) and says where to stand for
-    it to fill a third of the view."""
-    survey, _, _ = engine
-    survey.start(SurveyStart(rows=2, cols=3), "tester")
-    await survey._task
-    result = survey._result
-    best = result.points[0]
-    assert best.radius_deg and best.radius_deg > 0
-    ack = await survey.choose(ChooseTarget(result.station, 1), "tester")
-    fit = survey.station.manifest["choice"]["next"]
-    assert "across" in ack and f"{fit['rows']}×{fit['cols']} mosaic" in ack
-    assert fit["target_deg"] == pytest.approx(2 * best.radius_deg * 300 / 60, rel=1e-3)
-    assert fit["suggested_m"] == pytest.approx(300 * 2 * best.radius_deg / 10.0, rel=1e-2)
-    assert 1 <= fit["rows"] <= 2 and 1 <= fit["cols"] <= 3
-    survey.start(SurveyStart(), "tester")  # no size asked: the fitted one
-    plan = survey.station.manifest["plan"]
-    assert (plan["rows"], plan["cols"]) == (fit["rows"], fit["cols"])
-    assert (plan["pan0"], plan["tilt0"]) == (best.pan, best.tilt)
-    await survey._task
+    it to fill a third of the view. (On the world: a walked mosaic aimed near a panorama's
+    edge would leave it, and is refused.)"""
+    async with _engine(tmp_path, camera="sim://world?seed=3") as (survey, _, _):
+        survey.start(SurveyStart(rows=2, cols=3), "tester")
+        await survey._task
+        result = survey._result
+        best = result.points[0]
+        assert best.radius_deg and best.radius_deg > 0
+        ack = await survey.choose(ChooseTarget(result.station, 1), "tester")
+        fit = survey.station.manifest["choice"]["next"]
+        assert "across" in ack and f"{fit['rows']}×{fit['cols']} mosaic" in ack
+        assert fit["target_deg"] == pytest.approx(2 * best.radius_deg * 300 / 60, rel=1e-3)
+        assert fit["suggested_m"] == pytest.approx(300 * 2 * best.radius_deg / 10.0, rel=1e-2)
+        assert 1 <= fit["rows"] <= 2 and 1 <= fit["cols"] <= 3
+        survey.start(SurveyStart(), "tester")  # no size asked: the fitted one
+        plan = survey.station.manifest["plan"]
+        assert (plan["rows"], plan["cols"]) == (fit["rows"], fit["cols"])
+        assert (plan["pan0"], plan["tilt0"]) == (best.pan, best.tilt)
+        await survey._task
 
 
-async def test_points_are_judged_against_what_earlier_stations_showed(engine) -> None:
-    """The session's first station has no history; from the second on, each point carries
-    its colour difference from what was seen before, and says so in plain words."""
-    survey, _, _ = engine
-    survey.start(SurveyStart(rows=1, cols=2), "tester")
-    await survey._task
-    first = survey._result
-    assert all(p.novelty is None for p in first.points)
-    await survey.choose(ChooseTarget(first.station, 1), "tester")
-    survey.start(SurveyStart(rows=1, cols=2), "tester")
-    await survey._task
-    second = survey._result
-    name = first.station.split("/")[1]
-    for p in second.points:
-        assert p.novelty is not None and p.novelty >= 0
-        assert p.why.endswith((f"new since {name}", f"seen at {name}")), p.why
-    manifest = survey.station.manifest["points"]
-    assert [m["novelty"] for m in manifest] == [p.novelty for p in second.points]
+async def test_a_repeat_is_not_new_and_the_approached_target_was_seen(tmp_path: Path) -> None:
+    """Novelty is judged against what the session's earlier stations saw at a point's place
+    and scale. The first station has no history; the same view surveyed again (no choice:
+    same place, same pointing) finds nothing new, its #1 being the first's #1; walking in on
+    that #1, the 60 m station's #1 is the target the 300 m station ranked."""
+    config = SurveyConfig(simulate_approach=True)
+    async with _engine(tmp_path, config, camera="sim://world?seed=3") as (survey, _, _):
+        survey.start(SurveyStart(rows=2, cols=3), "tester")
+        await survey._task
+        first = survey._result
+        assert all(p.novelty is None for p in first.points)
+        survey.start(SurveyStart(rows=2, cols=3), "tester")
+        await survey._task
+        again = survey._result
+        assert again.points[0].why.endswith("; #1 at st01-300m"), again.points[0].why
+        for p in again.points:  # a point that is no target is neither new nor seen
+            assert p.novelty is None if not p.target else p.novelty <= NEW, p
+            assert bool(re.search(r"; (#\d at|seen at) st01-300m$", p.why)) == p.target, p.why
+        await survey.choose(ChooseTarget(again.station, 1), "tester")
+        survey.start(SurveyStart(), "tester")
+        await survey._task
+        near = survey._result
+        assert re.search(r"; #\d at st01-300m$", near.points[0].why), near.points[0].why
+        assert near.points[0].novelty == 0.0
+        manifest = survey.station.manifest["points"]
+        assert [m["novelty"] for m in manifest] == [p.novelty for p in near.points]
+
+
+async def test_what_no_earlier_station_covered_is_new(tmp_path: Path) -> None:
+    """From the same place, a view that does not overlap the first: every target in it is
+    new, since nothing earlier looked there."""
+    async with _engine(tmp_path, camera="sim://world?seed=3") as (survey, _, _):
+        survey.start(SurveyStart(rows=1, cols=1, pan0=-20.0), "tester")
+        await survey._task
+        survey.start(SurveyStart(rows=1, cols=1, pan0=20.0), "tester")
+        await survey._task
+        targets = [p for p in survey._result.points if p.target]
+        assert targets
+        for p in targets:
+            assert p.novelty == 1.0 and p.why.endswith("; new since st01-300m"), p.why
 
 
 async def test_a_station_is_registered_to_the_one_it_was_aimed_from(engine) -> None:

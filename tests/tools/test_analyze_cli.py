@@ -159,7 +159,12 @@ def test_bad_files_get_one_line_each_and_the_rest_go_on(tmp_path, scene_png):
     (tmp_path / "bomb.png").write_bytes(_png_header_only(100_000, 100_000))
     (tmp_path / "truncated.png").write_bytes(good.read_bytes()[:100])
     (tmp_path / "folder.png").mkdir()
+    jpeg = bytearray(cv2.imencode(".jpg", cv2.imread(str(good)))[1].tobytes())
+    (tmp_path / "cut.jpg").write_bytes(jpeg[: len(jpeg) // 2])
+    jpeg[len(jpeg) // 2 : len(jpeg) // 2 + 8] = bytes(b ^ 0xFF for b in jpeg[len(jpeg) // 2 :][:8])
+    (tmp_path / "flipped.jpg").write_bytes(jpeg)
     bad = ["missing.png", "empty.png", "text.png", "bomb.png", "truncated.png", "folder.png"]
+    bad += ["cut.jpg", "flipped.jpg"]
     proc = cyborgd("analyze", *bad, str(good), "--json", "--out", str(tmp_path / "o"), cwd=tmp_path)
     assert proc.returncode == 1
     errors = proc.stderr.strip().splitlines()
@@ -168,6 +173,8 @@ def test_bad_files_get_one_line_each_and_the_rest_go_on(tmp_path, scene_png):
         assert line.startswith(f"cyborgd analyze: {name}: "), line
         assert "Traceback" not in line
     assert "too large" in errors[3]
+    assert "truncated PNG" in errors[4] and "truncated JPEG" in errors[6]
+    assert "corrupt image data: Corrupt JPEG data" in errors[7]  # libjpeg's line, attributed
     assert json.loads(proc.stdout)["image"] == str(good)
 
 

@@ -21,7 +21,17 @@ FIELDS = [
     "timing_ms",
     "products",
 ]
-POINT_FIELDS = ["rank", "x", "y", "radius", "score", "description", "summary", "explanation"]
+POINT_FIELDS = [
+    "rank",
+    "x",
+    "y",
+    "radius",
+    "score",
+    "description",
+    "summary",
+    "explanation",
+    "target",
+]
 
 
 def test_the_result_is_typed_and_result_json_is_it_field_for_field(tmp_path: Path) -> None:

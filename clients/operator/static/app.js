@@ -54,6 +54,11 @@ async function onFrame(buffer) {
   }
 }
 
+// 24-hour HH:MM:SS, as the keypad shows it, whatever the browser's locale.
+const clock = (seconds) => {
+  const t = new Date(seconds * 1000);
+  return [t.getHours(), t.getMinutes(), t.getSeconds()].map((n) => String(n).padStart(2, "0")).join(":");
+};
 const fmt = (x, d = 2) => (x === null || x === undefined ? "?" : (x >= 0 ? "+" : "") + x.toFixed(d));
 
 function onState(s) {
@@ -65,19 +70,22 @@ function onState(s) {
   $("control").textContent = `control: ${holder === s.me ? "you" : holder || "nobody"}`;
   $("pose").textContent = s.ptu ? `PTU pan ${fmt(s.ptu.pan)}° tilt ${fmt(s.ptu.tilt)}° ${s.ptu.moving ? "moving" : "still"}` : "PTU ?";
   $("state").textContent = s.status ? `${s.status.state} ${s.status.station || ""} ${s.status.station ? s.status.distance_m + " m" : ""}` : "state ?";
-  showProgress(s.progress);
+  showProgress(s.progress, s.result);
   showResult(s.result, s.chips);
   $("log").replaceChildren(...s.log.map((e) => {
     const li = document.createElement("li");
     li.className = e.level;
-    li.textContent = `${new Date(e.at * 1000).toLocaleTimeString()} ${e.text}`;
+    li.textContent = `${clock(e.at)} ${e.text}`;
     return li;
   }));
   $("log").scrollTop = $("log").scrollHeight;
 }
 
-function showProgress(p) {
-  if (!p) return;
+function showProgress(p, r) {
+  if (!p) {  // opened while a station's points wait, or before any survey
+    $("progresstext").textContent = r ? `points of ${r.station} await a choice` : "no survey yet";
+    return;
+  }
   const part = p.total ? p.done / p.total : 0;
   const fraction = { tiles: 0.6 * part, analysis: 0.6, chips: 0.8 + 0.2 * part, done: 1 }[p.stage] ?? 0;
   $("progress").value = fraction;
@@ -87,7 +95,12 @@ function showProgress(p) {
 }
 
 function showResult(r, chips) {
-  if (!r) return;
+  if (!r) {  // nothing awaits a choice (chosen, or the rig restarted): no stale points
+    $("station").textContent = "Interest points";
+    $("points").tBodies[0].replaceChildren();
+    $("chips").replaceChildren();
+    return;
+  }
   const [session, name] = r.station.split("/");
   $("station").textContent = `Interest points of ${r.station}`;
   $("points").tBodies[0].replaceChildren(...r.points.map((p) => {
@@ -95,8 +108,14 @@ function showResult(r, chips) {
     tr.innerHTML = `<td>${p.rank}</td><td>${p.score.toFixed(2)}</td><td>${fmt(p.pan)}</td><td>${fmt(p.tilt)}</td><td class="why"></td>`;
     tr.querySelector(".why").textContent = p.why;
     const td = document.createElement("td");
-    td.append(button(`Choose ${p.rank}`, () => send("target/choose", { station: r.station, rank: p.rank })),
-              button("Look", () => send("ptu/goto", { pan: p.pan, tilt: p.tilt })));
+    // A point not told from the view's background (protocol 2.4) cannot be chosen.
+    if (p.target === false) {
+      tr.className = "notarget";
+      td.append("no further target ");
+    } else {
+      td.append(button(`Choose ${p.rank}`, () => send("target/choose", { station: r.station, rank: p.rank })));
+    }
+    td.append(button("Look", () => send("ptu/goto", { pan: p.pan, tilt: p.tilt })));
     tr.append(td);
     return tr;
   }));
