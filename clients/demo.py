@@ -85,9 +85,11 @@ async def _demo(out: Path, time_scale: float, seed: int) -> int:
         maps = folder / "analysis"
         print(f"    overlay   {maps / 'overlay.png'}")
         print(f"    maps      {maps}/{{segmentation,uncommon}}_{{h,s,i}}.png, interest.png")
+        print(f"    figures   {maps}/figure_*.png (each map with its legend or scale)")
         print(f"    mosaic    {folder / 'mosaic.png'}; chips in {folder / 'chips'}/")
     for session in sorted({result.station.split("/")[0] for result in stations}):
         log = archive / session / "session.mcap"
+        print(f"report      {archive / session / 'report.html'}  (prints on A4, a page a station)")
         print(f"session log {log}  (Foxglove opens it; cyborg replay {archive / session})")
     return code
 

@@ -41,6 +41,8 @@ def test_cyborg_demo_runs_three_stations(tmp_path: Path) -> None:
         assert str(m.parent / "analysis" / "overlay.png") in proc.stdout
     (log,) = (out / "archive").glob("*/session.mcap")  # one session: the whole approach
     assert f"session log {log}" in proc.stdout
+    assert f"report      {log.parent / 'report.html'}" in proc.stdout  # every product, and where
+    assert (log.parent / "report.html").is_file()
 
 
 @pytest.mark.skipif(shutil.which("systemd-analyze") is None, reason="no systemd-analyze here")
