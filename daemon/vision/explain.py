@@ -102,6 +102,10 @@ def _typical(h: np.ndarray, s: np.ndarray, i: np.ndarray) -> str:
     return colour_name(math.degrees(mean) % 360, _median(s), _median(i))
 
 
+_CORE = 0.5
+"""The share of a point's radius whose pixels give its colour and tone."""
+
+
 def plain_lines(points: list[InterestPoint], hsi: HSIPlanes) -> list[str]:
     """One sentence per point on what it found, comparing its patch with the whole image.
 
@@ -120,6 +124,11 @@ def plain_lines(points: list[InterestPoint], hsi: HSIPlanes) -> list[str]:
     >>> leaf[40:50, 40:50] = (60, 100, 140)
     >>> plain_lines(pts[:1], rgb_to_hsi(leaf))
     ['brown patch in a mostly green view; 0.8 % of the area']
+    >>> import cv2
+    >>> rust = cv2.circle(img.copy(), (50, 50), 3, (35, 40, 185), -1)  # a red spot seen
+    >>> [plain_lines([InterestPoint(1, 50.0, 50.0, 1.0, r)], rgb_to_hsi(rust))[0].split(";")[0]
+    ...  for r in (3.0, 6.0)]                                  # close and from afar
+    ['dark red patch on brown rock', 'dark red patch on brown rock']
     """
     rows, cols = hsi.i.shape
     step = max(1, math.isqrt(rows * cols // _SAMPLE))  # the whole image's colour and tones
@@ -132,10 +141,14 @@ def plain_lines(points: list[InterestPoint], hsi: HSIPlanes) -> list[str]:
         r0, r1 = max(0, math.floor(point.y - radius)), min(rows, math.ceil(point.y + radius) + 1)
         c0, c1 = max(0, math.floor(point.x - radius)), min(cols, math.ceil(point.x + radius) + 1)
         yy, xx = np.ogrid[r0:r1, c0:c1]
-        inside = (yy - point.y) ** 2 + (xx - point.x) ** 2 <= radius**2
+        dist2 = (yy - point.y) ** 2 + (xx - point.x) ** 2
+        inside = dist2 <= radius**2
         if not inside.any():
             inside = np.ones((r1 - r0, c1 - c0), bool)
-        h, sat, i = (plane[r0:r1, c0:c1][inside] for plane in hsi.planes)
+        # Its colour and tone are its core's: the blurred patch is up to twice the target's
+        # size, and a red spot's disc on orange rock would read orange from afar, red close.
+        core = dist2 <= max(_CORE * radius, 1.5) ** 2
+        h, sat, i = (plane[r0:r1, c0:c1][core if core.any() else inside] for plane in hsi.planes)
         here = _typical(h, sat, i)
         level = _median(i)
         darker = 1.0 - below[int(level) + 1] / below[-1]  # share strictly brighter
