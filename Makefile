@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo rig test bench bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security bench-printed bench-novelty bench-targets bench-sizes lint clean
+.PHONY: demo rig test bench bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security bench-printed bench-novelty bench-targets bench-sizes bench-aims bench-archive bench-nodata lint clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -28,7 +28,7 @@ test: $(STAMP)
 	$(PY) -m ruff check .
 	$(PY) -m pytest -q
 
-bench: bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security bench-printed bench-novelty bench-targets bench-sizes
+bench: bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security bench-printed bench-novelty bench-targets bench-sizes bench-aims bench-archive bench-nodata
 
 bench-quality: $(STAMP)
 	$(PY) -m bench.quality --scenes 120
@@ -76,6 +76,19 @@ bench-record: $(STAMP)
 	$(PY) -m bench.record
 
 # Scripts at the edges: a vanished rig, Ctrl-C, a closed pipe.
+# Aims of study on mixed scenes (a stain, a vein, a plant and a lichen in each view; a pale
+# cliff and grey rock, some with sky): the requested kind first, the excluded ones last.
+bench-aims: $(STAMP)
+	$(PY) -m bench.aims --scenes 15
+
+# cyborgd analyze over 200 real images: the last sequential release's command vs one process per core.
+bench-archive: $(STAMP)
+	$(PY) -m bench.archive --images 200
+
+# The real images framed as mosaic tiles and turned panoramas with a black no-data fill.
+bench-nodata: $(STAMP)
+	$(PY) -m bench.nodata
+
 bench-edges: $(STAMP)
 	$(PY) -m bench.edges
 

@@ -20,7 +20,9 @@ Scoring, as the data's README states it. Each method returns its top 3 points, b
   so every hit rate, is the image as stored;
 * chance: what a uniform random point scores, the mean dilated-mask area (top1, p@3) and
   the mean of 1 - (1 - area)^3 (any3);
-* ms: median milliseconds per image (the clean look, from decoded image to points).
+* ms: median milliseconds per image (the clean look, from decoded image to points), every
+  method on one BLAS and one OpenCV thread as the rig's analysis processes run
+  (``threads.single_thread``); ``speed:`` gives ``default``'s over RX's and colour rarity's.
 
 Rates are per set (marsdata also per Rock-A / Rock-B tag; every extra ``masks_<x>`` folder,
 i.e. cwfid's weed-only masks, as an extra row ``<set>-<x>``) and pooled over all images
@@ -77,6 +79,7 @@ from cyborg.daemon.vision.imageio import ImageError, as_bgr8, read_image
 from cyborg.daemon.vision.interest import InterestPoint
 from cyborg.daemon.vision.job import analyze_image, input_points
 from cyborg.daemon.vision.params import VisionParams, compared
+from cyborg.daemon.vision.threads import single_thread
 from cyborg.protocol.settings import add_settings_argument
 
 SET_ORDER = ("marsdata", "cwfid", "crackforest", "magnetic_tile", "ai4mars")
@@ -369,7 +372,25 @@ def format_table(results: dict[str, Any]) -> list[str]:
             f"{'met' if met['set_deficit'] else 'NOT met'}, repeat@1 >= 90% "
             f"{'met' if met['repeat1'] else 'NOT met'}"
         )
+    speed = speed_ratios(groups["pooled"]["rates"]) if "pooled" in groups else {}
+    if speed:
+        lines.append(
+            "speed: median ms per image, default / baseline (same run, one thread): "
+            + ", ".join(f"{b} {r:.2f}x (goal <= {SPEED_GOALS[b]:g})" for b, r in speed.items())
+        )
     return lines
+
+
+SPEED_GOALS = {"rx-anomaly": 1.5, "colour-rarity": 3.0}
+"""Issue 44: ``default``'s median time per real image at most this many times the baseline's."""
+
+
+def speed_ratios(rates: dict[str, dict[str, float]]) -> dict[str, float]:
+    """``default``'s median ms over each baseline's of :data:`SPEED_GOALS` in the run."""
+    if "default" not in rates:
+        return {}
+    ms = rates["default"]["ms"]
+    return {b: ms / rates[b]["ms"] for b in SPEED_GOALS if b in rates and rates[b]["ms"] > 0}
 
 
 def _quality(text: str) -> int:
@@ -392,6 +413,7 @@ def main(argv: list[str] | None = None) -> int:
     add_settings_argument(ap, "every pipeline profile alike", default=[])
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    single_thread()  # every method is timed as the rig's analysis processes run
     try:  # a mistyped setting is refused whether or not the data is here
         methods(args.settings)
     except ValueError as exc:

@@ -22,6 +22,7 @@ from typing import Any
 
 import zenoh
 
+from cyborg.protocol.aims import add_aim_argument
 from cyborg.protocol.messages import (
     REQUESTS,
     ArchiveGet,
@@ -102,6 +103,8 @@ async def _status(client: RigClient, args: argparse.Namespace) -> tuple[Report, 
         f"  station  {station}",
         f"  worker   pid {status.worker_pid}",
     ]
+    if status.aim:  # a 2.5 rig: what the next station seeks unless told otherwise
+        lines.insert(-1, f"  aim      {status.aim} (the next station's, unless --aim)")
     if status.last_error:
         lines.append(f"  error    {status.last_error}")
     return report, "\n".join(lines)
@@ -129,7 +132,9 @@ async def _survey(client: RigClient, args: argparse.Namespace) -> tuple[Report, 
     progress = client.subscribe(client.keys.progress, SurveyProgress)
     results = client.subscribe(client.keys.result, InterestResult)
     settings = None if args.settings is None else tuple(args.settings)
-    request = SurveyStart(args.rows, args.cols, args.downsample, args.profile, settings=settings)
+    request = SurveyStart(
+        args.rows, args.cols, args.downsample, args.profile, settings=settings, aim=args.aim
+    )
 
     def show(p: SurveyProgress) -> None:
         count = f" {p.done}/{p.total}" if p.total else ""
@@ -139,7 +144,10 @@ async def _survey(client: RigClient, args: argparse.Namespace) -> tuple[Report, 
     result = await run_station(
         client, progress, results, request, timeout=args.timeout, on_progress=show
     )
-    lines = [f"station {result.station}: mosaic {result.width}x{result.height}"]
+    sought = f", aim {result.aim}" if result.aim else ""
+    if args.aim and not result.aim:  # a rig older than protocol 2.5 ignores the field
+        sought = ", the rig ranked for no aim (it predates aims of study)"
+    lines = [f"station {result.station}: mosaic {result.width}x{result.height}{sought}"]
     for p in result.points:
         mark = "" if p.target else "  no further target"
         lines.append(
@@ -330,6 +338,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         const=[],
         dest="settings",
         help="none of the rig's configured survey.settings, the profile as it is",
+    )
+    add_aim_argument(
+        survey,
+        "default: the session's last station's aim, else the rig's survey.aim "
+        "(--aim any: no preference)",
     )
     fetch = command("fetch", _fetch, "download one archived product")
     fetch.add_argument("session")

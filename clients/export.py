@@ -42,10 +42,12 @@ COLUMNS = (
     "target_longitude",
     "target_altitude",
     "range_m",
+    "aim",
 )
 """The CSV's columns: a contract (new ones are only ever added at the end). ``latitude``,
 ``longitude``, ``altitude`` and ``site`` are the station's; ``target_*`` the point's
-estimated position, ``range_m`` the range it was estimated at."""
+estimated position, ``range_m`` the range it was estimated at; ``aim`` the station's aim of
+study (``protocol.aims``; empty for a station recorded before aims)."""
 
 
 def point_rows(manifests: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -64,6 +66,7 @@ def point_rows(manifests: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """
     rows = []
     for m in _in_order(manifests):
+        aim = _aim(m)
         site = m.get("site") or {}
         leg = site.get("leg") or {}
         chosen = (m.get("choice") or {}).get("rank")
@@ -95,6 +98,7 @@ def point_rows(manifests: list[dict[str, Any]]) -> list[dict[str, Any]]:
                     "target_longitude": target.get("longitude"),
                     "target_altitude": target.get("altitude"),
                     "range_m": target.get("range_m"),
+                    "aim": aim,
                 }
             )
     return rows
@@ -116,6 +120,11 @@ def _cell(value: Any) -> Any:
     if isinstance(value, bool):
         return "true" if value else "false"
     return value
+
+
+def _aim(manifest: dict[str, Any]) -> str:
+    """The aim of study the station's plan records."""
+    return str((manifest.get("plan") or {}).get("aim") or "")
 
 
 def _in_order(manifests: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -158,6 +167,7 @@ def to_geojson(manifests: list[dict[str, Any]]) -> dict[str, Any]:
             "source": site.get("source", "unknown"),
             "leg": site.get("leg"),
             "chosen": (m.get("choice") or {}).get("rank"),
+            "aim": _aim(m),
         }
         features.append({"type": "Feature", "geometry": where, "properties": props})
         if where is not None:

@@ -14,6 +14,7 @@ from pathlib import Path
 import cv2
 import zenoh
 
+from cyborg.protocol.aims import add_aim_argument
 from cyborg.protocol.settings import add_settings_argument
 from cyborg.protocol.transport import MODES
 from cyborg.protocol.version import BUILD, PROTOCOL_MAJOR, PROTOCOL_MINOR
@@ -26,6 +27,7 @@ from .ptu.emulator import Ptu46Emulator
 from .ptu.models import MODELS
 from .ptu.ptyserver import BANNER, PtyEmulatorServer, parse_fault, serve
 from .router import run_router
+from .tools.batch import PRODUCTS
 from .vision.params import PROFILES, profile, with_settings
 from .zenohlog import route_zenoh_logs
 
@@ -107,16 +109,31 @@ def _run_daemon(args: argparse.Namespace) -> int:
 
 
 def _analyze_parser(sub: argparse._SubParsersAction) -> None:
-    ap = sub.add_parser("analyze", help="find interest points in image files, write all products")
-    ap.add_argument("images", nargs="+", metavar="IMAGE")
+    ap = sub.add_parser(
+        "analyze",
+        help="find interest points in image files, folders or globs, on every core",
+    )
+    ap.add_argument(
+        "images",
+        nargs="*",
+        metavar="INPUT",
+        help="an image file, a folder (its images, recursively) or a quoted glob ('**' recurses)",
+    )
+    ap.add_argument(
+        "--from",
+        dest="from_file",
+        metavar="FILE",
+        help="also the inputs listed in FILE, one per line (# comments; -: standard input)",
+    )
     ap.add_argument(
         "--out",
         type=Path,
         default=Path("out/analyze"),
-        help="product folder (default: %(default)s)",
+        help="product folder, one sub-folder per image and summary.jsonl (default: %(default)s)",
     )
     ap.add_argument("--profile", choices=sorted(PROFILES), default="default")
     ap.add_argument("--top", type=int, default=None, metavar="N", help="number of interest points")
+    add_aim_argument(ap, "default: the profile's (any)")
     add_settings_argument(ap, "the profile", default=[])
     ap.add_argument(
         "--downsample",
@@ -125,6 +142,31 @@ def _analyze_parser(sub: argparse._SubParsersAction) -> None:
         metavar="F",
         help="reduce the image F times before analysis, as the seed did (4-8); "
         "default: the profile's working size",
+    )
+    ap.add_argument(
+        "--products",
+        choices=PRODUCTS,
+        default="all",
+        help="images written beside each result.json: all (default), overlay or none",
+    )
+    ap.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep the images whose folder already holds a complete result made with the "
+        "same profile and parameters",
+    )
+    ap.add_argument(
+        "--jobs",
+        type=int,
+        default=None,
+        metavar="N",
+        help="analysis processes (default: one per core)",
+    )
+    ap.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on a Dask cluster (tcp://HOST:8786; the workers must see the same paths; "
+        "needs the 'cluster' extra)",
     )
     ap.add_argument("--json", action="store_true", help="print one JSON object per image")
 
@@ -252,10 +294,32 @@ def _main(argv: list[str] | None) -> int:
             if args.top < 1:
                 parser.error("--top must be at least 1")
             params = params.replace(top_n=args.top)
+        if args.aim is not None:
+            params = params.replace(aim=args.aim)
+        if args.jobs is not None and args.jobs < 1:
+            parser.error("--jobs must be at least 1")
+        if not args.images and args.from_file is None:
+            parser.error("give an image, a folder or a glob, or --from FILE")
         # The science core is loaded only to analyse, never by the service.
         cli = importlib.import_module(".tools.analyze", __package__)
-        opts = cli.AnalyzeOptions(args.out, args.profile, params, args.downsample, args.json)
-        return cli.analyze_files(args.images, opts)
+        inputs = list(args.images)
+        if args.from_file is not None:
+            try:
+                inputs += cli.read_list(args.from_file)
+            except (OSError, UnicodeDecodeError) as exc:
+                parser.error(f"--from: cannot read {args.from_file}: {exc}")
+        opts = cli.AnalyzeOptions(
+            args.out,
+            args.profile,
+            params,
+            args.downsample,
+            args.json,
+            args.jobs,
+            args.products,
+            args.resume,
+            args.scheduler,
+        )
+        return cli.analyze_files(inputs, opts)
     if args.command == "run":
         return _run_daemon(args)
     if args.command == "ptu-emulator":

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from .vision.imageio import fsync_dir, write_atomic, write_png
+from .vision.imageio import fsync_path, write_atomic, write_png
 
 __all__ = ["Archive", "ArchiveError", "Station"]
 
@@ -114,7 +114,7 @@ class Station:
         if final.exists():
             shutil.rmtree(final)
         os.replace(self.partial_dir, final)
-        fsync_dir(self.folder)
+        fsync_path(self.folder)
         written = sorted(p.relative_to(self.folder).as_posix() for p in final.iterdir())
         for rel in written:
             self._record(rel, (self.folder / rel).stat().st_size)

@@ -213,6 +213,7 @@ class Commands:
             s.last_error,
             s.awaiting_result,
             self._ptu_step(),
+            s.aim,
         )
 
     def _ptu_step(self) -> float:

@@ -12,11 +12,13 @@ from pathlib import Path
 from typing import Any
 
 from cyborg.protocol.access import access_control, load_users
+from cyborg.protocol.aims import parse_aim
 from cyborg.protocol.keys import Keys
 from cyborg.protocol.transport import Transport
 
+from .survey.analysis import check_profile
 from .survey.site import SiteConfig
-from .vision.params import PROFILES, with_settings
+from .vision.params import PROFILES
 
 __all__ = [
     "CameraConfig",
@@ -67,6 +69,9 @@ class SurveyConfig:
     settings: tuple[str, ...] = ()
     """``NAME=VALUE`` changes to whichever vision profile a survey uses, as ``cyborgd analyze
     --set`` makes them (``params.with_settings``): a choice tried offline, taken to the field."""
+    aim: str = "any"
+    """The aim of study (``protocol.aims``, e.g. ``dark+no-vegetation``) of a session's first
+    station when the survey start names none; later stations keep the last one asked for."""
     approach: tuple[float, ...] = (300.0, 60.0, 10.0)
     """Distances (m) of the approach loop's stations: the seed walked 300 -> 60 -> 10 m."""
     simulate_approach: bool = False
@@ -186,11 +191,16 @@ def validate(cfg: Config) -> Config:
     if not all(isinstance(item, str) for item in s.settings):
         raise ConfigError('survey.settings must list "NAME=VALUE" texts')
     try:  # a survey may ask for any profile: each must take the settings
-        for params in PROFILES.values():
-            with_settings(params, list(s.settings))
+        for name in PROFILES:
+            check_profile(name, s.settings)
     except ValueError as exc:
-        raise ConfigError(f"survey.settings: {exc}") from None
-    return cfg  # [zenoh] checked itself (protocol.transport): clear text, anonymous TLS
+        raise ConfigError(f"survey.{exc}") from None
+    try:
+        aim = parse_aim(s.aim).text
+    except ValueError as exc:
+        raise ConfigError(f"survey.aim: {exc}") from None
+    # [zenoh] checked itself (protocol.transport): clear text, anonymous TLS
+    return replace(cfg, survey=replace(s, aim=aim))
 
 
 def load(path: Path | None = None, **overrides: Any) -> Config:

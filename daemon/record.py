@@ -45,7 +45,7 @@ from cyborg.protocol.messages import (
 )
 
 from .archive import FINAL_STATES, MANIFEST
-from .vision.imageio import fsync_dir
+from .vision.imageio import fsync_path
 
 __all__ = ["DAMAGED", "FILENAME", "Recorder", "SessionLog", "recover", "recover_logs"]
 
@@ -397,7 +397,7 @@ def recover(path: Path) -> tuple[int, bool]:
     if not cut:
         os.replace(path, path.with_name(DAMAGED))
     os.replace(aside, path)
-    fsync_dir(path.parent)
+    fsync_path(path.parent)
     return copy.messages, not cut
 
 

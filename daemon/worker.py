@@ -96,11 +96,17 @@ def _serve(conn: Connection, parent: int) -> None:
     mid-job; it exits when the daemon closes the pipe, and with the daemon.
     """
     _die_with(parent)
-    import cv2  # noqa: PLC0415 - only the worker needs OpenCV's threads
+    from .vision.threads import single_thread  # noqa: PLC0415 - the daemon stays light
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    cv2.setNumThreads(1)
+    single_thread()  # before the science core loads its libraries
+    try:  # so that the first station is not the one that loads (or compiles) the kernels
+        from .vision.kernels import warm  # noqa: PLC0415
+
+        warm()
+    except Exception:  # a job meets the same fault and reports it; the worker stays up
+        _LOGGER.exception("vision worker: warming the science core failed")
     while True:
         try:
             call: _Call = conn.recv()

@@ -103,6 +103,9 @@ class InterestResult(Message):
     points: tuple[InterestPoint, ...] = ()
     width: int = 0
     height: int = 0
+    aim: str = ""
+    """The aim of study the station sought (2.5, ``protocol.aims``, canonical form): its
+    points are ranked for it. Empty: an older rig, whose ranking was the science's own."""
 
 
 @dataclass(frozen=True)
@@ -169,6 +172,9 @@ class Status(Message):
     ptu_step: float = 0.0
     """Degrees: the unit's coarser position step, as it reported its resolution (2.3); a
     head standing still this close to a target is there. 0: an older rig."""
+    aim: str = ""
+    """The aim of study a station started without one takes (2.5): the session's last
+    station's, else the rig's configured ``survey.aim``. Empty: an older rig."""
 
 
 @dataclass(frozen=True)

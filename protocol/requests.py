@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar, Generic, TypeVar
 
+from .aims import parse_aim
 from .base import Message, in_range
 from .replies import Ack, ArchiveData, ArchiveListing, FrameStream, Status
 from .settings import MAX_SETTINGS, check_setting
@@ -131,6 +132,11 @@ class SurveyStart(Request[Ack]):
     ``NAME=VALUE`` texts (``cyborgd analyze --set``); left out, the rig's configured
     ``survey.settings`` apply, and ``()`` asks for none. Their form is checked here; the rig
     checks the names and values against the profile before it moves.
+
+    ``aim`` (2.5) is what the station is after, ``KIND[+EXCLUSION...]`` (:mod:`.aims`),
+    checked here and kept in its canonical form. Left out, a station keeps the aim of the
+    session's last station (a survey again, the approach's next leg), else it takes the
+    rig's configured ``survey.aim``; ``any`` asks for the science's own ranking.
     """
 
     KIND: ClassVar[str] = "survey.start"
@@ -143,8 +149,11 @@ class SurveyStart(Request[Ack]):
     pan0: float | None = None
     tilt0: float | None = None
     settings: tuple[str, ...] | None = None
+    aim: str | None = None
 
     def __post_init__(self) -> None:
+        if self.aim is not None:
+            object.__setattr__(self, "aim", parse_aim(self.aim).text)
         if self.rows is not None:
             in_range("rows", self.rows, 1, 16)
         if self.cols is not None:

@@ -7,6 +7,8 @@ binds control to it; a 1.x peer is refused with "protocol 2 required".
 2.3: a status carries the PTU's position step (``ptu_step``), read from the unit.
 2.4: an interest point says whether it stands out from its view (``target``; false: "no
 further target", its score indistinguishable from the view's background).
+2.5: a survey start may carry the station's aim of study (``aim``, ``protocol.aims``); a
+result says the aim its station sought, a status the aim the next station takes unasked.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ BUILD = importlib.metadata.version("cyborg-astrobiologist")
 """This installation's version (``cyborgd --version``, ``cyborg --version``, ``hello``)."""
 
 PROTOCOL_MAJOR = 2
-PROTOCOL_MINOR = 4
+PROTOCOL_MINOR = 5
 
 
 def compatible(major: int) -> bool:

@@ -80,7 +80,12 @@ class Keypad:
         elif ch == ord("h"):
             self._spawn("home", lambda: self.client.command(PtuHome()))
         elif ch == ord("s"):
-            self._spawn("survey", lambda: self.client.command(SurveyStart()))
+            start = SurveyStart(aim=self.prompt.aim)
+            self._spawn("survey", lambda: self.client.command(start))
+        elif ch == ord("a"):
+            self.prompt.next_kind()
+        elif ch == ord("x"):
+            self.prompt.next_aside()
         elif ch == ord("c"):
             self._spawn("cancel", lambda: self.client.command(SurveyCancel()))
         elif ch in (ord("0"), ord("1"), ord("2"), ord("3")):

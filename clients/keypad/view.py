@@ -3,21 +3,30 @@ tested without a terminal and the curses layer only paints lines."""
 
 from __future__ import annotations
 
+import itertools
 import textwrap
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from cyborg.clients.watch import RigView
+from cyborg.protocol.aims import EXCLUSIONS, KINDS, Aim
 
-__all__ = ["KEYS", "STEPS", "Line", "Prompt", "progress_fraction", "render"]
+__all__ = ["ASIDE", "KEYS", "STEPS", "Line", "Prompt", "progress_fraction", "render"]
 
 STEPS = (0.1, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0)
 """Jog step sizes in degrees, cycled with + and -."""
 
 KEYS = (
-    "←↑↓→ jog  +/- step  h home  SPACE halt  s survey  c cancel",
+    "←↑↓→ jog  +/- step  h home  SPACE halt  s survey  c cancel  a aim  x aside",
     "1/2/3 choose  0 none  p+1..3 look at  t take  r release  q quit",
 )
+
+ASIDE: tuple[frozenset[str], ...] = tuple(
+    frozenset(names)
+    for size in range(len(EXCLUSIONS) + 1)
+    for names in itertools.combinations(EXCLUSIONS, size)
+)
+"""What ``x`` cycles through: nothing set aside, each exclusion, then their combinations."""
 
 Line = tuple[str, str]
 """(text, style): style is one of title, alert, ok, warn, dim, normal."""
@@ -34,6 +43,33 @@ class Prompt:
     endpoints: str
     step: float = 2.0
     prefix: str = ""
+    kind: str | None = None
+    """The kind the next station seeks (``a`` cycles it); None: whatever the rig would take."""
+    aside: frozenset[str] = field(default_factory=frozenset)
+    """The kinds the next station sets aside (``x`` cycles them)."""
+
+    @property
+    def aim(self) -> str | None:
+        """The aim the next survey asks for; None leaves it to the rig (its status says which).
+
+        >>> p = Prompt("rig1", "me", "")
+        >>> p.aim, p.next_kind().next_kind().aim, p.next_aside().aim
+        (None, 'dark', 'dark+no-vegetation')
+        """
+        if self.kind is None and not self.aside:
+            return None
+        return Aim(self.kind or "any", self.aside).text
+
+    def next_kind(self) -> Prompt:
+        """The next kind: the rig's, then each of ``protocol.aims.KINDS`` in turn."""
+        cycle: list[str | None] = [None, *KINDS]
+        self.kind = cycle[(cycle.index(self.kind) + 1) % len(cycle)]
+        return self
+
+    def next_aside(self) -> Prompt:
+        """The next set of exclusions (:data:`ASIDE`)."""
+        self.aside = ASIDE[(ASIDE.index(self.aside) + 1) % len(ASIDE)]
+        return self
 
 
 def progress_fraction(stage: str, done: int, total: int) -> float:
@@ -79,7 +115,17 @@ def _header(view: RigView, prompt: Prompt) -> list[Line]:
     else:
         where = f"  station {s.station}  {s.distance_m:g} m" if s.station else ""
         lines.append((f" rig  {s.state}{where}", "normal"))
+    lines.append(_aim(view, prompt))
     return lines
+
+
+def _aim(view: RigView, prompt: Prompt) -> Line:
+    """What the next station will seek: the keypad's choice, else the rig's (its status)."""
+    keys = "(a: kind, x: set aside)"
+    if prompt.aim is not None:
+        return (f" aim  next station: {prompt.aim}, this keypad's {keys}", "warn")
+    rigs = view.status.aim if view.status else ""
+    return (f" aim  next station: {rigs + ', ' if rigs else ''}the rig's {keys}", "normal")
 
 
 def _progress(view: RigView, width: int) -> list[Line]:
@@ -104,7 +150,8 @@ def _points(view: RigView, width: int) -> list[Line]:
     r = view.result
     if r is None:
         return []
-    lines: list[Line] = [(f" Interest points of {r.station}:", "title")]
+    sought = f" (aim {r.aim})" if r.aim else ""
+    lines: list[Line] = [(f" Interest points of {r.station}{sought}:", "title")]
     if not r.points:
         lines.append(("   none found", "dim"))
     for p in r.points:

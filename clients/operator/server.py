@@ -25,6 +25,7 @@ from typing import Any
 
 from aiohttp import WSMsgType, web
 
+from cyborg.protocol.aims import EXCLUSIONS, KINDS
 from cyborg.protocol.messages import (
     REQUESTS,
     Ack,
@@ -81,6 +82,7 @@ class Operator:
                 web.static("/static", STATIC, name=ASSETS),
                 web.get("/ws", self._socket),
                 web.get("/api/commands", self._commands),
+                web.get("/api/aims", self._aims),
                 web.post("/api/view", self._view),
                 web.post("/api/{verb:.+}", self._command),
                 web.get("/api/archive", self._archive),
@@ -204,6 +206,11 @@ class Operator:
                 if kind.REPLY is Ack
             }
         )
+
+    async def _aims(self, request: web.Request) -> web.Response:
+        """``GET /api/aims``: the aims of study a survey may ask for (``protocol.aims``), each
+        with what it means ({kinds: {name: meaning}, exclusions: {...}}); the page lists them."""
+        return web.json_response({"kinds": KINDS, "exclusions": EXCLUSIONS})
 
     async def _command(self, request: web.Request) -> web.Response:
         """``POST /api/<verb>`` with the request's fields as a JSON object: every command the

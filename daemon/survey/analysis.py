@@ -22,9 +22,14 @@ __all__ = ["check_profile", "interest_points"]
 
 def check_profile(profile: str, settings: Sequence[str]) -> None:
     """Raise ValueError for an unknown profile or a bad setting: a typo is an error before
-    anything moves, not a failed station later."""
+    anything moves, not a failed station later. The aim is no setting here: a station has
+    one aim, set as such (``survey.start``'s ``aim``, ``survey.aim``) and recorded once."""
     if profile not in PROFILES:
         raise ValueError(f"unknown profile {profile!r}; known: {', '.join(PROFILES)}")
+    if any(item.partition("=")[0].strip() == "aim" for item in settings):
+        raise ValueError(
+            "settings: the aim is the station's own (--aim, survey.aim), not a setting"
+        )
     try:
         with_settings(PROFILES[profile], list(settings))
     except ValueError as exc:

@@ -101,6 +101,8 @@ class Approach:
     """The aimed target's azimuth at the station it was chosen at: the way the rig walks."""
     mosaic: tuple[int, int] | None = None
     """(rows, cols) fitted to the aimed target's size."""
+    sought: str = ""
+    """The aim of study (``protocol.aims``) the session's last station asked for."""
 
     def distance(self, cfg: SurveyConfig) -> float:
         return cfg.approach[self.leg]
@@ -143,9 +145,15 @@ class Approach:
         """The optics of ``base`` as this leg sees through them."""
         return base.zoomed(self.magnification(cfg))
 
+    def aim_of_study(self, cfg: SurveyConfig) -> str:
+        """The aim a station started without one takes: the session's last station's (an
+        approach keeps what it is after), else the configured one."""
+        return self.sought or cfg.aim
+
     def complete(self, req: SurveyStart, cfg: SurveyConfig) -> SurveyStart:
         """``req`` with what it leaves open filled in: the mosaic fitted to the aimed
-        target, else the configured one; the configured reduction, profile and settings."""
+        target, else the configured one; the configured reduction, profile and settings;
+        the aim of study (:meth:`aim_of_study`)."""
         rows, cols = self.mosaic or (cfg.rows, cfg.cols)
         return replace(
             req,
@@ -154,6 +162,7 @@ class Approach:
             downsample=cfg.downsample if req.downsample is None else req.downsample,
             profile=cfg.profile if req.profile is None else req.profile,
             settings=cfg.settings if req.settings is None else req.settings,
+            aim=self.aim_of_study(cfg) if req.aim is None else req.aim,
         )
 
     def plan(

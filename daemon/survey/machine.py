@@ -117,6 +117,11 @@ class Survey:
         return self._approach.distance(self.cfg)
 
     @property
+    def aim(self) -> str:
+        """The aim of study a station started without one takes (``Approach.aim_of_study``)."""
+        return self._approach.aim_of_study(self.cfg)
+
+    @property
     def station_id(self) -> str:
         return f"{self._approach.session}/{self.station.name}" if self.station else ""
 
@@ -138,19 +143,20 @@ class Survey:
             ap.session, ap.index = self.archive.new_session(), 0
             self.memory.clear()
         ap.index += 1
+        ap.sought = aim = req.aim  # completed: asked for, kept, or configured
         settings = tuple(req.settings or ())
         self.station = self.archive.new_station(
             ap.session,
             ap.index,
             self.distance,
-            plan=geometry.to_plan(profile=req.profile, settings=list(settings)),
+            plan=geometry.to_plan(profile=req.profile, settings=list(settings), aim=aim),
             site=ap.place(cfg, self.archive, self.site(), last),
             requested_by=requested_by,
             aim={"pan": ap.aim[0], "tilt": ap.aim[1], "from": ap.aimed_from} if ap.aim else None,
         )
         self.state, self.last_error, self._result = SurveyState.SURVEYING, "", None
         self._task = asyncio.create_task(
-            self._run(geometry, req.profile, settings), name="cyborgd.survey.run"
+            self._run(geometry, req.profile, settings, aim), name="cyborgd.survey.run"
         )
         return self.station_id
 
@@ -217,7 +223,11 @@ class Survey:
     ) -> None:
         self.tel.progress(SurveyProgress(self.station_id, stage, done, total, eta))
 
-    async def _run(self, geometry: MosaicGeometry, profile: str, settings: tuple[str, ...]) -> None:
+    async def _run(
+        self, geometry: MosaicGeometry, profile: str, settings: tuple[str, ...], aim: str
+    ) -> None:
+        """One station (module doc); its aim reaches the analysis as a parameter, so
+        result.json's params record it with the rest."""
         station = self.station
         assert station is not None
         t0 = time.perf_counter()
@@ -239,7 +249,12 @@ class Survey:
             # that dies after the announcement dies with this station's job in it.
             self._progress("analysis", 0, 1)
             job = AnalysisJob(
-                str(station.partial_dir), mosaic, profile, "mosaic.png", prior, settings
+                str(station.partial_dir),
+                mosaic,
+                profile,
+                "mosaic.png",
+                prior,
+                (*settings, f"aim={aim}"),
             )
             analysis = await self.worker.call(job)
             timing["analysis_s"] = self._analysis_estimate = time.perf_counter() - ta
@@ -259,12 +274,13 @@ class Survey:
                 self.memory.remember, self.station_id, mosaic, geometry, points, previous
             )
             await update_report(station)  # current by the time anyone hears of the result
-            self._result = InterestResult(self.station_id, tuple(points), *geometry.size)
+            self._result = InterestResult(self.station_id, tuple(points), *geometry.size, aim)
             self.state = SurveyState.AWAITING_CHOICE
             self._progress("done", 1, 1, 0.0)
             self.tel.result(self._result)
             self.tel.event(
-                "info", f"station {self.station_id} complete: {len(points)} interest points"
+                "info",
+                f"station {self.station_id} complete: {len(points)} interest points, aim {aim}",
             )
         except asyncio.CancelledError as exc:
             reason = str(exc.args[0]) if exc.args else "cancelled"

@@ -30,6 +30,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from cyborg.protocol.aims import EXCLUSIONS, KINDS, parse_aim
 from cyborg.protocol.palette import CLASS_RGB, POINT_RGB, UNSEGMENTED_RGB, css
 
 from ..archive import MANIFEST, Station
@@ -90,6 +91,8 @@ be told from its view's background is listed as "no further target", with no rin
 <li>Where: the unit's pan and tilt; azimuth and elevation when the heading is known; the
 target's size in degrees across; its place, estimated from where the station stood, the
 direction and the range, when a range is known.
+<li>Aim: what the station was after, as the scientist set it: points of the sought kind are
+ranked first, the kinds set aside last; none is hidden ("any": the science's own ranking).
 <li>Stood at: a GPS fix when there was one, else the configured site for the first station,
 else dead-reckoned along the leg walked from the station before.
 <li>Segmentations: each plane (H hue, S saturation, I intensity) in up to 8 classes, coloured by
@@ -158,14 +161,34 @@ def _overview(manifests: list[dict[str, Any]]) -> str:
         return ""
     rows = "".join(
         f"<tr><td>{_e(m.get('station', '?'))}<td>{m.get('distance_m', '?')} m"
-        f"<td>{_e(_stood(m.get('site') or {}))}<td>{_e(m.get('status', '?'))}"
+        f"<td>{_e(_stood(m.get('site') or {}))}<td>{_e(_aim_of(m) or '?')}"
+        f"<td>{_e(m.get('status', '?'))}"
         f"<td>{_e(_chosen(m))}<br><small>{_e((_chosen_point(m) or {}).get('why', ''))}</small>"
         for m in manifests
     )
     return (
-        "<table class=overview><tr><th>station<th>distance<th>stood at<th>status<th>choice"
-        f"</tr>{rows}</table>"
+        "<table class=overview><tr><th>station<th>distance<th>stood at<th>aim<th>status"
+        f"<th>choice</tr>{rows}</table>"
     )
+
+
+def _aim_of(m: dict[str, Any]) -> str:
+    """The aim of study a station's plan records ('' for a station recorded before aims)."""
+    return str((m.get("plan") or {}).get("aim") or "")
+
+
+def _aim_words(text: str) -> str:
+    """An aim as a field scientist reads it: what it sought first, what it set aside.
+
+    >>> _aim_words("dark+no-sky")
+    'dark (dark features: wet stains, dark lenses, desert varnish); set aside: no-sky'
+    """
+    try:
+        aim = parse_aim(text)
+    except ValueError:
+        return text
+    aside = [name for name in EXCLUSIONS if name in aim.exclude]
+    return f"{aim.kind} ({KINDS[aim.kind]})" + (f"; set aside: {', '.join(aside)}" if aside else "")
 
 
 def _station(folder: Path, m: dict[str, Any], href: str) -> str:
@@ -180,6 +203,7 @@ def _station(folder: Path, m: dict[str, Any], href: str) -> str:
         f"{_e(m.get('status', '?'))}</h2>",
         f"<p class=meta>{_e(m.get('started', ''))} → {_e(m.get('finished') or '…')} · "
         f"{_e(_chosen(m) if m.get('points') else m.get('reason', ''))}"
+        + (f"<br>aim: {_e(_aim_words(_aim_of(m)))}" if _aim_of(m) else "")
         + (f"<br>timings: {timing}" if timing else "")
         + f"<br>stood at: {_e(_stood(m.get('site') or {}))}</p>",
     ]

@@ -48,6 +48,10 @@ class AnalysisResult:
     timing_ms: dict[str, float]
     products: dict[str, str]
     """Product name -> file name in the analysis folder."""
+    notes: tuple[str, ...] = ()
+    """What the analysis could not do and why, in plain language: a plane of one class
+    (nothing in it is uncommon: with every plane alike ``paper`` has no point to give), a
+    no-data fill left out (``pipeline.Analysis.notes``)."""
 
     def to_dict(self) -> dict[str, Any]:
         """The ``result.json`` document (a contract: field names and order as declared)."""

@@ -19,12 +19,12 @@ Pixels are labelled with these classes by ``segment.segment_plane``.
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
+from .kernels import kernel
 from .params import VisionParams
 
 __all__ = [
@@ -247,42 +247,81 @@ def _discs(prof: np.ndarray, params: VisionParams) -> tuple[PlaneClass, ...]:
     return tuple(chosen)
 
 
-def _persistence(prof: np.ndarray) -> dict[int, float]:
+@kernel
+def _persistence(prof: np.ndarray) -> np.ndarray:
     """Each local maximum of a 1-D profile and its persistence: how far the profile falls
     from it before reaching a higher maximum (0-dimensional persistent homology of the
-    superlevel sets; the highest maximum gets its full height)."""
-    owner = np.full(len(prof), -1)
-    peaks: dict[int, float] = {}
-    for i in sorted(range(len(prof)), key=lambda v: (-prof[v], v)):
+    superlevel sets; the highest maximum gets its full height). ``out[g]`` is the
+    persistence of the maximum at g, -1 where there is none.
+
+    Values are visited from the highest down (ties: the lower index first); each joins the
+    maximum of its neighbours' regions, and where two regions meet the lower maximum dies.
+    """
+    n = len(prof)
+    out = np.full(n, -1.0)
+    owner = np.full(n, -1)
+    for i in np.argsort(-prof, kind="mergesort"):  # stable: ties keep the lower index first
         if prof[i] <= 0:
             break
-        sides = {int(owner[j]) for j in (i - 1, i + 1) if 0 <= j < len(prof) and owner[j] >= 0}
-        if not sides:
+        left = owner[i - 1] if i > 0 else -1
+        right = owner[i + 1] if i + 1 < n else -1
+        if left < 0 and right < 0:
             owner[i] = i
             continue
-        top = min(sides, key=lambda g: (-prof[g], g))
-        for g in sides - {top}:  # the lower maximum dies here, at saddle height prof[i]
-            peaks[g] = float(prof[g] - prof[i])
-            owner[owner == g] = top
+        top = left if right < 0 else right
+        if left >= 0 and right >= 0 and left != right:
+            # The higher maximum (ties: the lower value) lives; the other dies at prof[i].
+            high = prof[left] > prof[right] or (prof[left] == prof[right] and left < right)
+            top, low = (left, right) if high else (right, left)
+            out[low] = prof[low] - prof[i]
+            for j in range(n):
+                if owner[j] == low:
+                    owner[j] = top
         owner[i] = top
-    for g in set(owner[owner >= 0].tolist()) - set(peaks):
-        peaks[int(g)] = float(prof[g])
-    return peaks
+    for j in range(n):
+        if owner[j] == j and out[j] < 0:  # never died: its full height
+            out[j] = prof[j]
+    return out
 
 
-def _valley(prof: np.ndarray, a: int, b: int) -> int:
-    """The last value of the left block between maxima a < b: the middle of the lowest run."""
-    seg = prof[a : b + 1]
-    low = np.flatnonzero(seg <= seg.min() + 1e-9 * max(seg.max(), 1e-30))
-    runs = np.split(low, np.flatnonzero(np.diff(low) > 1) + 1)
-    deepest = runs[len(runs) // 2]
-    return a + int((deepest[0] + deepest[-1]) // 2)
+@kernel
+def _valleys(prof: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """The last value of the left block between each two successive maxima a < b: the
+    middle of the lowest run of the profile between them (the middle run if several)."""
+    ends = np.empty(len(centres) - 1, np.int64)
+    for c in range(len(centres) - 1):
+        a, b = centres[c], centres[c + 1]
+        seg = prof[a : b + 1]
+        low = seg.min() + 1e-9 * max(seg.max(), 1e-30)
+        runs = 0  # runs of values <= low, then the middle one's ends
+        inside = False
+        for v in seg:
+            if v <= low and not inside:
+                runs += 1
+            inside = v <= low
+        want, run, first, last = runs // 2, -1, -1, -1
+        inside = False
+        for j in range(len(seg)):
+            here = seg[j] <= low
+            if here and not inside:
+                run += 1
+                if run == want:
+                    first = j
+            if here and run == want:
+                last = j
+            inside = here
+        ends[c] = a + (first + last) // 2
+    return ends
 
 
 def _blocks(prof: np.ndarray, smooth: np.ndarray, params: VisionParams) -> tuple[PlaneClass, ...]:
     persistence = _persistence(prof)
     kept = sorted(
-        (g for g, p in persistence.items() if p >= params.min_persistence * prof[g]),
+        (
+            g
+            for g in np.flatnonzero(persistence >= 0).tolist()
+            if persistence[g] >= params.min_persistence * prof[g]
+        ),
         key=lambda g: (-persistence[g], g),
     )[: params.max_classes]
     # A block's mass is the pair count inside its square; light blocks merge into a
@@ -291,7 +330,7 @@ def _blocks(prof: np.ndarray, smooth: np.ndarray, params: VisionParams) -> tuple
     total = cum[-1, -1]
     while True:
         centres = sorted(kept)
-        ends = [_valley(prof, a, b) for a, b in itertools.pairwise(centres)]
+        ends = _valleys(prof, np.array(centres, np.int64)).tolist()
         bounds = list(zip([0, *(e + 1 for e in ends)], [*ends, 255], strict=True))
         masses = [
             cum[hi + 1, hi + 1] - cum[lo, hi + 1] - cum[hi + 1, lo] + cum[lo, lo]

@@ -301,8 +301,8 @@ def _texture_entry(
 
 
 def clauses(explanation: list[dict]) -> str:
-    """The plain-language words on texture, shade, layers and thin lines for a point's line
-    ("" for none).
+    """The plain-language words on texture, shade, layers, thin lines and the aim for a point's
+    line ("" for none).
 
     Examples
     --------
@@ -319,6 +319,8 @@ def clauses(explanation: list[dict]) -> str:
     '; probably in shade'
     >>> clauses([dict(line, share=0.1)])          # a line nearby, not what made the point
     ''
+    >>> clauses([{"plane": "aim", "kind": "vegetation", "match": "set aside"}])
+    '; set aside by the aim (vegetation)'
     """
     words = ""
     # A dark line in shade is the shadow's own rim or end, not a crack: shade says it.
@@ -332,9 +334,13 @@ def clauses(explanation: list[dict]) -> str:
             words += "; part of a layer across the view"
         elif e["plane"] == "line" and not shaded and _made_by_line(e):
             words += f"; a thin {'bright' if e['contrast'] > 0 else 'dark'} line"
+        elif e["plane"] == "aim" and e["match"] != "other":
+            words += _AIM_WORDS[e["match"]].format(kind=e["kind"])
     return words
 
 
+_AIM_WORDS = {"sought": "; what the aim seeks", "set aside": "; set aside by the aim ({kind})"}
+"""What a point's line says of the aim (``aims.aim_entry``); a point of another kind, nothing."""
 _RARE_TEXTURE = 0.9
 """A point's surroundings count as of rare texture when 9 in 10 of the image's pixels have
 commoner texture."""

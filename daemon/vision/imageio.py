@@ -124,8 +124,9 @@ def _file_mode() -> int:
     return 0o666 & ~mask
 
 
-def fsync_dir(path: Path) -> None:
-    """Put a folder's entries on the disk: a rename in it survives a power cut."""
+def fsync_path(path: Path) -> None:
+    """Put a file's data, or a folder's entries, on the disk: a rename in the folder
+    survives a power cut."""
     fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)
@@ -133,8 +134,9 @@ def fsync_dir(path: Path) -> None:
         os.close(fd)
 
 
-def write_atomic(path: Path, data: bytes) -> None:
-    """Write a file so that readers see the old file or the whole new one, never a part."""
+def write_atomic(path: Path, data: bytes, sync: bool = True) -> None:
+    """Write a file so that readers see the old file or the whole new one, never a part;
+    ``sync=False`` leaves it to the caller to fsync (many files at once, then a mark)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
@@ -142,7 +144,8 @@ def write_atomic(path: Path, data: bytes) -> None:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()
-            os.fsync(fh.fileno())
+            if sync:
+                os.fsync(fh.fileno())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -163,21 +166,23 @@ def encode_image(image: np.ndarray, ext: str = ".jpg", quality: int = 90) -> byt
     return buf.tobytes() if ok else b""
 
 
-def write_png(path: Path, image: np.ndarray) -> None:
-    """Encode and write a PNG atomically."""
-    _write_encoded(path, image, ".png")
+def write_png(path: Path, image: np.ndarray, sync: bool = True) -> None:
+    """Encode and write a PNG atomically (``sync``: as :func:`write_atomic`)."""
+    _write_encoded(path, image, ".png", sync=sync)
 
 
-def write_jpeg(path: Path, image: np.ndarray, quality: int = 90) -> None:
+def write_jpeg(path: Path, image: np.ndarray, quality: int = 90, sync: bool = True) -> None:
     """Encode and write a JPEG atomically (photographs of many megapixels)."""
-    _write_encoded(path, image, ".jpg", quality)
+    _write_encoded(path, image, ".jpg", quality, sync)
 
 
-def _write_encoded(path: Path, image: np.ndarray, ext: str, quality: int = 90) -> None:
+def _write_encoded(
+    path: Path, image: np.ndarray, ext: str, quality: int = 90, sync: bool = True
+) -> None:
     data = encode_image(image, ext, quality)
     if not data:
         raise OSError(f"{path}: {ext[1:].upper()} encoding failed")
-    write_atomic(path, data)
+    write_atomic(path, data, sync)
 
 
 def as_bgr8(image: np.ndarray) -> np.ndarray:

@@ -31,6 +31,8 @@ import numpy as np
 
 from .cooccurrence import Segmentation
 from .grid import block_means, expand, grid_blur
+from .kernels import kernel
+from .order import median, percentiles
 from .params import VisionParams
 from .uncommon import uncommon_map
 
@@ -156,7 +158,7 @@ def interest_map(
     # Heights count from the typical level (the median, on a lattice of <= 2^18 pixels), and
     # outside the frame counts as typical rock.
     step = max(1, math.isqrt(rows * cols >> 18))
-    typical = np.float32(np.median(total[::step, ::step]))
+    typical = np.float32(median(total[::step, ::step]))
     sigma = params.sigma((rows, cols))
     f = _factor(sigma, (rows, cols), params.exact_blur)
     base = block_means(total, f) - typical
@@ -167,7 +169,7 @@ def interest_map(
         grid = blurred * _roundness(blurred, sigma / f, params.isotropy)
     if texture is not None and params.texture_weight > 0:
         rare = _blur(
-            block_means(texture, f) - np.median(texture[::step, ::step]),
+            block_means(texture, f) - median(texture[::step, ::step]),
             sigma * params.texture_blur,
             f,
         )
@@ -216,7 +218,7 @@ def fuse(uncommon: np.ndarray, texture: np.ndarray, weight: float) -> np.ndarray
 def _unit(grid: np.ndarray, floor: float) -> np.ndarray:
     """``grid`` with its median at 0 and its 99.5th percentile at 1, the spread between
     them taken as at least ``floor`` (less is no contrast worth a point)."""
-    low, high = np.percentile(grid, (50.0, 99.5))
+    low, high = percentiles(grid, (50.0, 99.5))
     return (grid - np.float32(low)) * np.float32(1.0 / max(high - low, floor))
 
 
@@ -249,7 +251,7 @@ def _wide(
     wide_sigma = sigma * params.wide_scale
     wide = _blur(base, wide_sigma, f)
     if fine is not None:
-        low, high = np.percentile(fine, (50.0, 99.5))
+        low, high = percentiles(fine, (50.0, 99.5))
         scale = (1.0 + params.texture_weight) / max(float(high - low), 1e-6)
         wide = (wide - np.float32(low)) * np.float32(scale)
     if params.isotropy > 0:
@@ -265,29 +267,44 @@ def _blur(grid: np.ndarray, sigma: float, f: int) -> np.ndarray:
     return grid_blur(grid, sigma, f, cv2.BORDER_CONSTANT)
 
 
-def _curvatures(smooth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The Hessian's eigenvalues (larger, smaller) at every cell of a smooth map."""
-    border = cv2.BORDER_REFLECT_101
-    lxx = cv2.Sobel(smooth, cv2.CV_32F, 2, 0, ksize=3, scale=0.25, borderType=border)
-    lyy = cv2.Sobel(smooth, cv2.CV_32F, 0, 2, ksize=3, scale=0.25, borderType=border)
-    lxy = cv2.Sobel(smooth, cv2.CV_32F, 1, 1, ksize=3, scale=0.25, borderType=border)
-    radius = cv2.magnitude(cv2.subtract(lxx, lyy) * 0.5, lxy)
-    mean = cv2.add(lxx, lyy) * 0.5
-    return mean + radius, mean - radius
-
-
 def _roundness(blurred: np.ndarray, sigma: float, share: float) -> np.ndarray:
     """1 - share + share x iso, iso = lambda_max / lambda_min where the map at twice the
     blur curves down in every direction (a cap): 1 on a round patch, 0 along a ridge or on a
     slope, whatever the height. Curvature under ``_FLAT`` of the map's strongest counts as
     flat, so a wide flat top is round instead of noise."""
     wider = cv2.GaussianBlur(blurred, (0, 0), math.sqrt(3.0) * sigma)
-    lmax, lmin = _curvatures(wider)
-    eps = np.float32(_FLAT * max(float(-lmin.min()), 0.0))
-    iso = np.where(
-        lmin < eps, np.clip((lmax - eps) / np.minimum(lmin - eps, -1e-12), 0.0, 1.0), 0.0
-    )
-    return (1.0 - share + share * iso).astype(np.float32)
+    border = cv2.BORDER_REFLECT_101
+    lxx = cv2.Sobel(wider, cv2.CV_32F, 2, 0, ksize=3, scale=0.25, borderType=border)
+    lyy = cv2.Sobel(wider, cv2.CV_32F, 0, 2, ksize=3, scale=0.25, borderType=border)
+    lxy = cv2.Sobel(wider, cv2.CV_32F, 1, 1, ksize=3, scale=0.25, borderType=border)
+    radius = cv2.magnitude(cv2.subtract(lxx, lyy) * 0.5, lxy)
+    return _isotropy(lxx, lyy, radius, _FLAT, share)
+
+
+@kernel
+def _isotropy(
+    lxx: np.ndarray, lyy: np.ndarray, radius: np.ndarray, flat: float, share: float
+) -> np.ndarray:
+    """:func:`_roundness` from the Hessian (its diagonal, and the radius of its eigenvalues
+    about their mean) in two passes (the strongest downward curvature, then each cell):
+    float32 arithmetic, operation for operation as the whole-array expression of it."""
+    xx, yy, rr = lxx.ravel(), lyy.ravel(), radius.ravel()  # OpenCV's: contiguous
+    half = np.float32(0.5)
+    strongest = np.inf  # the least lambda_min
+    for i in range(len(xx)):
+        strongest = min(strongest, (xx[i] + yy[i]) * half - rr[i])
+    eps = np.float32(flat * max(-float(np.float32(strongest)), 0.0))
+    keep, weight, steep = np.float32(1.0 - share), np.float32(share), np.float32(-1e-12)
+    out = np.empty_like(xx)
+    for i in range(len(xx)):
+        mean = (xx[i] + yy[i]) * half
+        lmin = mean - rr[i]
+        iso = np.float32(0.0)
+        if lmin < eps:
+            iso = (mean + rr[i] - eps) / min(lmin - eps, steep)
+            iso = min(max(iso, np.float32(0.0)), np.float32(1.0))
+        out[i] = keep + weight * iso
+    return out.reshape(lxx.shape)
 
 
 _FLAT = 0.1

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +20,7 @@ from . import render
 from .contract import AnalysisJob, AnalysisResult, ResultPoint
 from .explain import PLANE_NAMES, describe
 from .grid import reduce_to
-from .imageio import as_bgr8, write_atomic, write_jpeg, write_png
+from .imageio import as_bgr8, fsync_path, write_atomic, write_jpeg, write_png
 from .interest import InterestPoint
 from .params import VisionParams, profile, with_settings
 from .pipeline import Analysis, analyze
@@ -89,7 +90,8 @@ def input_points(shape: tuple[int, ...], res: Analysis) -> list[InterestPoint]:
 def result_document(
     path: str, bgr: np.ndarray, res: Analysis, profile: str, products: dict[str, str]
 ) -> AnalysisResult:
-    """The ``result.json`` contents: points in input pixels, classes, parameters, timings."""
+    """The ``result.json`` contents: points in input pixels, classes, parameters, timings,
+    and the analysis's notes (a plane of one class says so instead of a silent empty list)."""
     rows, cols = bgr.shape[:2]
     arows, acols = res.hsi.i.shape
     found = input_points(bgr.shape, res)
@@ -125,42 +127,64 @@ def result_document(
         classes,
         {k: round(v, 3) for k, v in res.timings_ms.items()},
         products,
+        res.notes,
     )
 
 
+def _sync_all(folder: Path, names: list[str]) -> None:
+    """fsync these files of a folder, and the folder, together: the flushes overlap, where
+    one fsync after each file would wait for each in turn."""
+
+    targets = [*(folder / name for name in names), folder]
+    with ThreadPoolExecutor(max_workers=min(16, len(targets))) as pool:
+        list(pool.map(fsync_path, targets))
+
+
 def write_products(
-    folder: Path, path: str, bgr: np.ndarray, res: Analysis, profile: str
+    folder: Path, path: str, bgr: np.ndarray, res: Analysis, profile: str, *, products: str = "all"
 ) -> AnalysisResult:
-    """Write planes, segmentations, co-occurrence plots, maps, overlay and result.json."""
+    """Write the products, then result.json: ``all`` planes, segmentations, co-occurrence
+    plots, maps, figures and the overlay; ``overlay`` the overlay only; ``none`` no image.
+
+    result.json marks the folder complete: it is removed first and written last, atomically,
+    once every product is on disk (one overlapped fsync for them all), so a crash leaves a
+    complete folder or one without result.json, never one that counts as done and is not.
+    """
     params = res.params
-    products: dict[str, str] = {}
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "result.json").unlink(missing_ok=True)
+    written: dict[str, str] = {}
 
     def put(name: str, image: np.ndarray) -> None:
-        write_png(folder / name, image)
-        products[name.removesuffix(".png")] = name
+        write_png(folder / name, image, sync=False)
+        written[name.removesuffix(".png")] = name
 
-    for name, plane, seg in zip(PLANE_NAMES, res.hsi.planes, res.segmentations, strict=True):
-        low = name.lower()
-        put(f"plane_{low}.png", plane)
-        put(f"segmentation_{low}.png", render.segmentation_image(seg))
-        put(f"cooccurrence_{low}.png", render.cooccurrence_plot(seg))
-        umap = uncommon_map(seg, params)
-        put(f"uncommon_{low}.png", render.grey_ramp(umap, vmax=8.0))
-        # the same maps as figures, each with its scale: the files above are data
-        put(f"figure_segmentation_{low}.png", render.class_figure(seg, f"segmentation {name}"))
-        put(f"figure_uncommon_{low}.png", render.map_figure(umap, f"uncommon {name}", 8.0))
-    interest = np.maximum(res.interest.full(), 0.0)
-    put("interest.png", render.grey_ramp(interest))
-    put("figure_interest.png", render.map_figure(interest, "interest"))
-    scale = bgr.shape[1] / res.hsi.i.shape[1]
-    if scale == 1.0:
-        put("overlay.png", render.overlay(bgr, res.points))
-    else:  # a big input: the overlay at the analysed size, and a JPEG at full size
-        small = reduce_to(bgr, res.hsi.i.shape[::-1])
-        put("overlay.png", render.overlay(small, res.points))
-        write_jpeg(folder / "overlay_full.jpg", render.overlay(bgr, res.points, scale=scale))
-        products["overlay_full"] = "overlay_full.jpg"
-    result = result_document(path, bgr, res, profile, products)
+    if products == "all":
+        for name, plane, seg in zip(PLANE_NAMES, res.hsi.planes, res.segmentations, strict=True):
+            low = name.lower()
+            put(f"plane_{low}.png", plane)
+            put(f"segmentation_{low}.png", render.segmentation_image(seg))
+            put(f"cooccurrence_{low}.png", render.cooccurrence_plot(seg))
+            umap = uncommon_map(seg, params)
+            put(f"uncommon_{low}.png", render.grey_ramp(umap, vmax=8.0))
+            # the same maps as figures, each with its scale: the files above are data
+            put(f"figure_segmentation_{low}.png", render.class_figure(seg, f"segmentation {name}"))
+            put(f"figure_uncommon_{low}.png", render.map_figure(umap, f"uncommon {name}", 8.0))
+        interest = np.maximum(res.interest.full(), 0.0)
+        put("interest.png", render.grey_ramp(interest))
+        put("figure_interest.png", render.map_figure(interest, "interest"))
+    if products != "none":
+        scale = bgr.shape[1] / res.hsi.i.shape[1]
+        if scale == 1.0:
+            put("overlay.png", render.overlay(bgr, res.points, notes=res.notes))
+        else:  # a big input: the overlay at the analysed size, and a JPEG at full size
+            small = reduce_to(bgr, res.hsi.i.shape[::-1])
+            put("overlay.png", render.overlay(small, res.points, notes=res.notes))
+            full = render.overlay(bgr, res.points, scale=scale, notes=res.notes)
+            write_jpeg(folder / "overlay_full.jpg", full, sync=False)
+            written["overlay_full"] = "overlay_full.jpg"
+    _sync_all(folder, list(written.values()))
+    result = result_document(path, bgr, res, profile, written)
     write_atomic(folder / "result.json", (json.dumps(result.to_dict(), indent=2) + "\n").encode())
     return result
 

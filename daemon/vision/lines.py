@@ -28,6 +28,7 @@ import math
 import cv2
 import numpy as np
 
+from .order import median
 from .params import VisionParams
 
 __all__ = ["bar_contrast", "line_rarity", "line_shade"]
@@ -135,8 +136,8 @@ def line_rarity(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
     bar = bar_contrast(plane, params.line_width, params.line_length)
     step = max(1, math.isqrt(bar.size // _SAMPLE))
     sample = np.abs(bar[::step, ::step])
-    centre = float(np.median(sample))
-    scale = max(1.4826 * float(np.median(np.abs(sample - centre))), _MAD_FLOOR)
+    centre = float(median(sample))
+    scale = max(1.4826 * float(median(np.abs(sample - centre))), _MAD_FLOOR)
     strength = np.abs(bar)
     np.subtract(strength, np.float32(centre), out=strength)
     np.maximum(strength, np.float32(0.0), out=strength)

@@ -16,6 +16,8 @@ import typing
 from dataclasses import dataclass
 from typing import Any, Literal
 
+from cyborg.protocol.aims import parse_aim
+
 UncommonMode = Literal["rank", "spread", "surprisal"]
 BlurMode = Literal["sigma", "fwhm"]
 HueGrey = Literal["zero", "unsegmented", "class"]
@@ -184,7 +186,16 @@ class VisionParams:
     exact_blur: bool = False
     """Blur at full resolution instead of on the band-limited (decimated) grid."""
 
+    # Aim of study (``aims``)
+    aim: str = "any"
+    """What the station is after, ``KIND[+EXCLUSION...]`` (``protocol.aims``, ``aims``): points
+    of the sought kind (dark, bright, colour) come first, excluded kinds (no-vegetation,
+    no-sky) last, and the science's own best point is always among the ``top_n``. Kept in
+    canonical form, so result.json records one spelling per aim. any: the science's own
+    ranking, untouched."""
+
     def __post_init__(self) -> None:
+        object.__setattr__(self, "aim", parse_aim(self.aim).text)
         if not 1 <= self.max_classes <= 8:
             raise ValueError(f"max_classes must be 1..8, got {self.max_classes}")
         if not 1 <= self.min_votes <= 4:

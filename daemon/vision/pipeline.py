@@ -4,18 +4,20 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from functools import partial
 
 import cv2
 import numpy as np
 
+from .aims import aim_entry, aim_points, aimed_map, kind_maps
 from .cooccurrence import Segmentation
-from .explain import clauses, explain_points, plain_lines
+from .explain import PLANE_NAMES, clauses, explain_points, plain_lines
 from .hsi import HSIPlanes, hue_histogram_rotation, rgb_to_hsi
 from .interest import InterestMap, InterestPoint, interest_map, summed_uncommon
 from .layers import discount_texture, discount_uncommon, layer_share
 from .lines import line_rarity, line_shade
+from .nodata import beside, fill, neutral, no_data_mask
 from .params import VisionParams
-from .peaks import find_points, mark_background
 from .segment import segment_plane
 from .shadow import shadow_likelihood
 from .texture import texture_rarity
@@ -42,6 +44,9 @@ class Analysis:
     a point marked as background."""
     params: VisionParams
     timings_ms: dict[str, float] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+    """What the analysis could not do and why, in plain language (``_notes``): a plane of one
+    class, a no-data fill left out."""
 
 
 def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = None) -> Analysis:
@@ -78,16 +83,21 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
         raise ValueError(f"expected (M, N, 3) uint8, got {bgr.shape} {bgr.dtype}")
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
+    void = no_data_mask(bgr)
+    if void is not None:  # a mosaic's or a panorama's black fill is not image (``nodata``)
+        bgr = fill(bgr, void)
+    valid = None if void is None else ~void
     # Sensor noise is smoothed out of what is segmented only: texture and shade are judged
     # on the image as it came (fine local contrast is what texture rarity measures).
     smooth = cv2.GaussianBlur(bgr, (0, 0), params.presmooth) if params.presmooth > 0 else bgr
     hsi = rgb_to_hsi(smooth, params.grey_saturation, params.hue_min_intensity)
     t1 = time.perf_counter()
     timings["hsi"] = (t1 - t0) * 1e3
-    hue, hue_mask = hsi.h, None
+    defined = hsi.hue_defined if valid is None else hsi.hue_defined & valid
+    hue, hue_mask = hsi.h, valid
     if params.hue_grey == "unsegmented":
-        hue_mask = hsi.hue_defined
-    offset = hue_histogram_rotation(hsi.h, hsi.hue_defined) if params.hue_rotate else 0
+        hue_mask = defined
+    offset = hue_histogram_rotation(hsi.h, defined) if params.hue_rotate else 0
     if params.hue_grey != "unsegmented":
         # Grey pixels go to code 0 after rotation by ``offset`` ("zero" rotates by 0; "class"
         # by the emptiest hue, so grey is a class of its own). uint8 arithmetic wraps modulo
@@ -97,8 +107,8 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
         hue = cv2.bitwise_and(hsi.h + rotation, defined) - rotation
     segs = (
         segment_plane(hue, params, mask=hue_mask, offset=offset),
-        segment_plane(hsi.s, params),
-        segment_plane(hsi.i, params),
+        segment_plane(hsi.s, params, mask=valid),
+        segment_plane(hsi.i, params, mask=valid),
     )
     t2 = time.perf_counter()
     timings["segment"] = (t2 - t1) * 1e3
@@ -122,10 +132,18 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
         texture = None if texture is None else cv2.multiply(texture, lit)
         if lines is not None:  # a line along a shadow is the shadow's rim or its thin end
             lines = cv2.multiply(lines, 1.0 - gate * line_shade(lines, shade))
+    if void is not None:  # the fill and its rim score the typical level, as outside the frame
+        band = beside(void)
+        total, texture, lines = (
+            None if m is None else neutral(m, band) for m in (total, texture, lines)
+        )
     if prior is not None:
         prior = _fit_prior(prior, bgr.shape[:2])
     imap = interest_map(segs, params, total, texture, prior=prior, line=lines)
-    points = mark_background(imap, find_points(imap, params))
+    # An aim (``aims``) orders the points by kind; ``any`` leaves them as found.
+    likeness = None if params.aim == "any" else kind_maps(bgr, hsi, shade, bars)
+    remap = partial(aimed_map, segs, params, total, texture, prior=prior, line=lines)
+    points, kinds = aim_points(imap, params, likeness, remap)
     t3 = time.perf_counter()
     timings["interest"] = (t3 - t2) * 1e3
     explanations = explain_points(
@@ -139,13 +157,47 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
         bars=bars,
         interest=imap,
     )
+    for expl, kind in zip(explanations, kinds, strict=bool(kinds)):  # no kinds under ``any``
+        expl.append(aim_entry(params.aim, kind))
     descriptions = [
         line + clauses(expl) if p.target else NO_TARGET
         for p, line, expl in zip(points, plain_lines(points, hsi), explanations, strict=True)
     ]
     timings["explain"] = (time.perf_counter() - t3) * 1e3
     timings["total"] = (time.perf_counter() - t0) * 1e3
-    return Analysis(hsi, segs, imap, points, explanations, descriptions, params, timings)
+    notes = _notes(segs, params, void)
+    return Analysis(hsi, segs, imap, points, explanations, descriptions, params, timings, notes)
+
+
+def _notes(
+    segs: tuple[Segmentation, ...], params: VisionParams, void: np.ndarray | None
+) -> tuple[str, ...]:
+    """Plain-language notes: planes whose segmentation found one class (nothing in them is
+    uncommon, so with every plane alike the seed's maps alone have no point to give; a
+    profile with texture or lines still judges those) and the no-data fill left out.
+
+    >>> from cyborg.daemon.vision.params import DEFAULT, PAPER
+    >>> flat = np.full((30, 40, 3), 128, np.uint8)
+    >>> _notes(analyze(flat, PAPER).segmentations, PAPER, None)
+    ('one class in H, S and I: nothing is uncommon at this resolution',)
+    >>> _notes(analyze(flat, DEFAULT).segmentations, DEFAULT, None)
+    ('one class in H, S and I: no colour or brightness is uncommon at this resolution',)
+    """
+    alone = [name for name, seg in zip(PLANE_NAMES, segs, strict=True) if seg.k <= 1]
+    notes = []
+    if len(alone) == len(segs):
+        seen = params.texture_weight > 0 or params.line_weight > 0  # texture, lines judged still
+        what = "no colour or brightness" if seen else "nothing"
+        notes.append(f"one class in H, S and I: {what} is uncommon at this resolution")
+    elif alone:
+        planes, them = (alone[0], "it") if len(alone) == 1 else (" and ".join(alone), "them")
+        notes.append(f"one class in {planes}: no value in {them} is uncommon at this resolution")
+    if void is not None:
+        notes.append(
+            f"no-data fill ({100 * float(void.mean()):.0f} % of the view, black beyond the "
+            "image's edge) left out: never segmented or scored"
+        )
+    return tuple(notes)
 
 
 def _fit_prior(prior: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

@@ -8,6 +8,7 @@ scale: axes in the map's pixels (or values) and a legend or a colour bar with va
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import cv2
 import numpy as np
@@ -157,18 +158,27 @@ def cooccurrence_plot(seg: Segmentation, size: int = 512) -> np.ndarray:
     return _compose(img, (256, 256), legend, "co-occurrence of neighbouring values", unit)
 
 
-def overlay(bgr: np.ndarray, points: list[InterestPoint], scale: float = 1.0) -> np.ndarray:
+def overlay(
+    bgr: np.ndarray, points: list[InterestPoint], scale: float = 1.0, notes: Sequence[str] = ()
+) -> np.ndarray:
     """Draw the interest points on a copy of the image, best first (``POINT_COLOURS``);
     a point that is no further target (``target`` False) gets no ring.
 
     Each ring lies outside the point's radius, so it frames the target instead of hiding
     it, and its number stands beside it. ``scale`` converts point coordinates to ``bgr``
-    pixels (input vs analysed image).
+    pixels (input vs analysed image). ``notes`` (the analysis's, e.g. "one class in H, S and
+    I: nothing is uncommon at this resolution") are written across the top, so an overlay
+    without a point says why.
+
+    >>> img = np.full((120, 200, 3), 128, np.uint8)
+    >>> bool((overlay(img, [], notes=["one class in H, S and I"]) != img).any())
+    True
     """
     out = bgr.copy()
     rows, cols = out.shape[:2]
     thick = max(1, round(min(rows, cols) / 300))
     font = 0.45 * thick
+    _caption(out, notes, thick)
     for p in points:
         if not p.target:
             continue
@@ -190,6 +200,28 @@ def overlay(bgr: np.ndarray, points: list[InterestPoint], scale: float = 1.0) ->
         )
         cv2.putText(out, label, (x, y), cv2.FONT_HERSHEY_SIMPLEX, font, colour, thick, cv2.LINE_AA)
     return out
+
+
+def _caption(out: np.ndarray, notes: Sequence[str], thick: int) -> None:
+    """Write ``notes`` in white on black outline down from the top-left corner, each cut
+    after its colon when too wide and shrunk to the image's width (in place)."""
+    cols = out.shape[1]
+    lines = []
+    for note in notes:
+        head, sep, tail = note.partition(": ")
+        wide = cv2.getTextSize(note, cv2.FONT_HERSHEY_SIMPLEX, 0.45 * thick, thick)[0][0]
+        lines += [head + sep.rstrip(), tail] if sep and wide > cols - 8 else [note]
+    y = 4
+    for line in lines:
+        size = 0.45 * thick
+        (tw, th), _ = cv2.getTextSize(line, cv2.FONT_HERSHEY_SIMPLEX, size, thick)
+        size *= min(1.0, (cols - 8) / max(tw, 1))
+        th = max(1, round(th * size / (0.45 * thick)))
+        y += th + 4 * thick
+        for colour, width in (((0, 0, 0), thick + 2), ((255, 255, 255), thick)):
+            cv2.putText(
+                out, line, (4, y), cv2.FONT_HERSHEY_SIMPLEX, size, colour, width, cv2.LINE_AA
+            )
 
 
 _PIXELS = "pixels of the analysed image (column across, row down)"

@@ -60,6 +60,7 @@ import cv2
 import numpy as np
 
 from .grid import block_means, expand, surround
+from .kernels import kernel
 from .params import VisionParams
 
 __all__ = ["shadow_likelihood"]
@@ -76,9 +77,6 @@ _LIT = 0.15
 """Pixels more than this log brightness below their surroundings are not lit rock."""
 _DARK = 0.4
 """Log brightness deficit at which darkness counts fully (1.5 times darker)."""
-_SPLIT = np.array([[-1.0 / (3.0 * _DARK)] * 3, [1.0, 0.0, -1.0], [0.0, 1.0, -1.0]], np.float32)
-"""A log colour shift to darkness (1 at ``_DARK``), log(B / R) and log(G / R) shifts."""
-_SPLIT_ROWS = tuple(np.ascontiguousarray(_SPLIT[k : k + 1]) for k in range(3))
 _TINT = 0.15
 """Shift towards blue along the illuminant line at which the tint evidence is full."""
 _UNTINTED = (0.015, 0.045)
@@ -158,32 +156,9 @@ def _likelihood(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
     host = _lit_mean(logs, brightness, around, sigma)
     host = _lit_mean(logs, brightness, cv2.transform(host, _MEAN), sigma)
     # The shift from the lit rock: darkness, and the chromaticity shift along and across the
-    # illuminant line (exactly 0 in a grey image) from the host darkened to the pixel.
-    mine = _project(own, params.shadow_tint)
-    ref = _reference(host, own, params.shadow_tint)
-    blue, green, red = cv2.split(host)
-    chroma = cv2.max(cv2.max(blue, green), red) - cv2.min(cv2.min(blue, green), red)
-    coloured = np.clip(chroma * np.float32(1.0 / _HOST_CHROMA) - 1.0, 0.0, 1.0)
-    tinted, untinted = _score(mine, ref, coloured)
-    # The sides matter only where a pixel is darker than its surroundings' mean: scored
-    # there alone, on the side hosts' pixels (row, col moved, clipped into the frame).
-    rows, cols = tinted.shape
-    dark = np.flatnonzero(cv2.subtract(mine[0], ref[0]) > np.float32(_CANDIDATE))
-    if dark.size:
-        # OpenCV reads an array of <= 4 values as a scalar: a few candidates are repeated.
-        dark = np.resize(dark, max(dark.size, 8))
-        at = [m.reshape(-1)[dark] for m in mine]
-        own_at = own.reshape(-1, 3)[dark][:, None]
-        row, col = np.divmod(dark, cols)
-        best = [tinted.reshape(-1)[dark], untinted.reshape(-1)[dark]]
-        d = max(1, round(_SIDE * sigma))
-        for dy, dx in ((0, d), (0, -d), (d, 0), (-d, 0)):
-            side = np.clip(row - dy, 0, rows - 1) * cols + np.clip(col - dx, 0, cols - 1)
-            host_at = host.reshape(-1, 3)[side][:, None]
-            side_ref = [m.reshape(-1) for m in _reference(host_at, own_at, params.shadow_tint)]
-            scores = _score(at, side_ref, coloured.reshape(-1).take(side))
-            best = [np.maximum(b, s.reshape(-1)) for b, s in zip(best, scores, strict=True)]
-        tinted.reshape(-1)[dark], untinted.reshape(-1)[dark] = best
+    # illuminant line (exactly 0 in a grey image) from the host darkened to the pixel; where
+    # a pixel is darker than its surroundings' mean, also from the side hosts.
+    tinted, untinted = _shade(own, host, params.shadow_tint, max(1, round(_SIDE * sigma)))
     untinted = cv2.morphologyEx(untinted, cv2.MORPH_OPEN, _disc(_THIN))
     crack = cv2.GaussianBlur(level, (0, 0), _CRACK)
     lines = _dark_lines(cv2.subtract(cv2.transform(host, _MEAN), crack))
@@ -209,11 +184,40 @@ def _lit_mean(
 ) -> np.ndarray:
     """Mean log colour of the pixels within ``_LIT`` of ``level`` or brighter (their blurred
     sum over their blurred weight), at every pixel."""
-    lit = (cv2.subtract(brightness, level) > -_LIT).astype(np.float32)
-    weighted = cv2.merge([cv2.multiply(logs, cv2.merge([lit] * 3)), lit])
-    both, f = surround(weighted, sigma)
-    weight = cv2.merge([both[..., 3] + np.float32(1e-3)] * 3)
-    return expand(cv2.divide(both[..., :3], weight), f, logs.shape[:2])
+    both, f = surround(_lit_weighted(logs, brightness, level), sigma)
+    return expand(_weighted_mean(both), f, logs.shape[:2])
+
+
+@kernel
+def _lit_weighted(logs: np.ndarray, brightness: np.ndarray, level: np.ndarray) -> np.ndarray:
+    """(M, N, 4) float32: the log colour of the pixels within ``_LIT`` of ``level`` or
+    brighter (0 elsewhere), and that weight (1 or 0)."""
+    rows, cols = brightness.shape
+    out = np.zeros((rows, cols, 4), np.float32)
+    for y in range(rows):
+        for x in range(cols):
+            if brightness[y, x] - level[y, x] > np.float32(-_LIT):
+                out[y, x, 0], out[y, x, 1], out[y, x, 2] = (
+                    logs[y, x, 0],
+                    logs[y, x, 1],
+                    logs[y, x, 2],
+                )
+                out[y, x, 3] = 1.0
+    return out
+
+
+@kernel
+def _weighted_mean(both: np.ndarray) -> np.ndarray:
+    """(m, n, 3) float32: blurred weighted sums over their blurred weight (+ 1e-3, so an
+    area with no lit pixel is no division by 0)."""
+    rows, cols = both.shape[:2]
+    out = np.empty((rows, cols, 3), np.float32)
+    for y in range(rows):
+        for x in range(cols):
+            weight = both[y, x, 3] + np.float32(1e-3)
+            for k in range(3):
+                out[y, x, k] = both[y, x, k] / weight
+    return out
 
 
 def _elongated(shade: np.ndarray) -> np.ndarray:
@@ -241,49 +245,79 @@ def _disc(radius: int) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
 
 
-def _project(logs: np.ndarray, tint: tuple[float, float]) -> list[np.ndarray]:
-    """Log B, G, R to darkness (1 at ``_DARK``) and the chromaticity along and across the
-    illuminant line ``tint``: exactly 0 on a grey pixel, so a grey image has no evidence."""
-    # One single-channel transform per row: a 3-channel transform then a split costs 3x.
-    darkness, db, dg = (cv2.transform(logs, row) for row in _SPLIT_ROWS)
-    u0, u1 = np.asarray(tint, np.float64) / math.hypot(*tint)
-    return [darkness, cv2.addWeighted(db, u0, dg, u1, 0.0), cv2.addWeighted(dg, u0, db, -u1, 0.0)]
+@kernel
+def _clip01(x: float) -> float:
+    return min(max(x, 0.0), 1.0)
 
 
-def _reference(host: np.ndarray, own: np.ndarray, tint: tuple[float, float]) -> list[np.ndarray]:
-    """The host's (darkness, along, across), its chromaticity taken as it would be darkened
-    to the pixel's own brightness by a change of light alone.
+@kernel
+def _against(mine: tuple, own: float, host: tuple, lin: tuple, u: tuple) -> tuple[float, float]:
+    """(tinted, untinted) evidence of a pixel against a host, from the pixel's darkness and
+    chromaticity along and across the illuminant line ``u`` (``mine``), its mean linear
+    value (``own``) and the host's log colour (B, G, R) and linear values (``lin``). The host
+    is taken as it would be darkened to the pixel's own brightness by a change of light alone.
 
     Log colour is taken of the value + ``_OFFSET``, and the offset weighs more the darker a
     pixel: darkened uniformly, a warm rock's log colour greys, which reads as a shift towards
     blue (0.07 at half brightness). Compared with the host darkened the same way, a pure
     darkening shifts by nothing, sky shade towards blue, and a wet stain, whose colour
     deepens, away from it."""
-    lin_host = cv2.exp(host) - np.float32(_OFFSET)
-    lin_own = cv2.exp(own) - np.float32(_OFFSET)
-    ratio = cv2.transform(lin_own, _MEAN) / (cv2.transform(lin_host, _MEAN) + np.float32(1e-3))
-    darker = np.clip(ratio, 0.0, 1.0)
-    darkened = cv2.log(lin_host * darker[..., None] + np.float32(_OFFSET))
-    return [_project(host, tint)[0], *_project(darkened, tint)[1:]]
+    darkness = mine[0] + (host[0] + host[1] + host[2]) / (3.0 * _DARK)
+    if darkness <= 0.0:  # not darker than this rock: no evidence, whatever the colour
+        return 0.0, 0.0
+    darker = _clip01(own / ((lin[0] + lin[1] + lin[2]) / 3.0 + 1e-3))
+    red = math.log(lin[2] * darker + _OFFSET)
+    db, dg = math.log(lin[0] * darker + _OFFSET) - red, math.log(lin[1] * darker + _OFFSET) - red
+    along = mine[1] - (db * u[0] + dg * u[1])
+    across = mine[2] - (dg * u[0] - db * u[1])
+    purity = 1.0 - abs(across) / (abs(along) * _CONE[1] + _CONE[0])
+    dark = _clip01(darkness) * _clip01(purity)
+    tinted = _clip01(along / _TINT)
+    chroma = max(host[0], host[1], host[2]) - min(host[0], host[1], host[2])
+    coloured = _clip01(chroma / _HOST_CHROMA - 1.0)  # an untinted darkening needs colour
+    untinted = _clip01((along + _UNTINTED[1]) / (_UNTINTED[1] - _UNTINTED[0])) * coloured
+    return dark * tinted, dark * untinted
 
 
-def _score(
-    mine: list[np.ndarray], host: list[np.ndarray], coloured: np.ndarray
+def _shade(
+    own: np.ndarray, host: np.ndarray, tint: tuple[float, float], d: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Shadow likelihood of each pixel's (darkness, along, across) against a host's, on the
-    tinted evidence and on the untinted; ``coloured`` is how coloured that host is (0..1),
-    which the untinted evidence needs."""
-    darkness, along, across = (cv2.subtract(a, b) for a, b in zip(mine, host, strict=True))
-    cone = cv2.add(cv2.absdiff(along, 0.0) * np.float32(_CONE[1]), _CONE[0])
-    purity = 1.0 - cv2.divide(cv2.absdiff(across, 0.0), cone)
-    dark = cv2.multiply(np.clip(darkness, 0.0, 1.0), np.clip(purity, 0.0, 1.0))
-    tinted = np.clip(along * np.float32(1.0 / _TINT), 0.0, 1.0)
-    untinted = cv2.multiply(
-        np.clip(
-            (along + np.float32(_UNTINTED[1])) * np.float32(1.0 / (_UNTINTED[1] - _UNTINTED[0])),
-            0.0,
-            1.0,
-        ),
-        coloured,
-    )
-    return cv2.multiply(dark, tinted), cv2.multiply(dark, untinted)
+    """Tinted and untinted evidence, (M, N) float32 each, of every pixel's own log colour
+    against its lit rock's (``host``), and where the pixel is darker than that rock by
+    ``_CANDIDATE``, also against the rock ``d`` pixels to each side (clipped into the
+    frame): the best of the five comparisons counts. ``tint`` is the illuminant line."""
+    u = tuple(float(t) / math.hypot(*tint) for t in tint)
+    # Linear values by OpenCV's vector exp: the kernel's scalar one costs 5x more.
+    lin_own = cv2.subtract(cv2.transform(cv2.exp(own), _MEAN), _OFFSET)
+    lin_host = cv2.subtract(cv2.exp(host), (_OFFSET,) * 3)
+    return _shade_kernel((own, host), (lin_own, lin_host), u, d)
+
+
+@kernel
+def _shade_kernel(logs: tuple, lin: tuple, u: tuple, d: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_shade` of the log colours ``logs`` (own, host) and the linear values
+    ``lin`` (own's mean, host's)."""
+    (own, host), (own_lin, host_lin) = logs, lin
+    rows, cols = own.shape[:2]
+    tinted = np.zeros((rows, cols), np.float32)
+    untinted = np.zeros((rows, cols), np.float32)
+    for y in range(rows):
+        for x in range(cols):
+            o0, o1, o2 = own[y, x, 0], own[y, x, 1], own[y, x, 2]
+            h = (host[y, x, 0], host[y, x, 1], host[y, x, 2])
+            hl = (host_lin[y, x, 0], host_lin[y, x, 1], host_lin[y, x, 2])
+            db, dg = o0 - o2, o1 - o2  # log(B / R), log(G / R)
+            mine = (-(o0 + o1 + o2) / (3.0 * _DARK), db * u[0] + dg * u[1], dg * u[0] - db * u[1])
+            darkness = mine[0] + (h[0] + h[1] + h[2]) / (3.0 * _DARK)
+            if darkness <= 0.0:  # no darker than its rock: no evidence, and no side is looked at
+                continue
+            best = _against(mine, own_lin[y, x], h, hl, u)
+            if darkness > _CANDIDATE:
+                for dy, dx in ((0, d), (0, -d), (d, 0), (-d, 0)):
+                    sy, sx = min(max(y - dy, 0), rows - 1), min(max(x - dx, 0), cols - 1)
+                    side = (host[sy, sx, 0], host[sy, sx, 1], host[sy, sx, 2])
+                    side_lin = (host_lin[sy, sx, 0], host_lin[sy, sx, 1], host_lin[sy, sx, 2])
+                    other = _against(mine, own_lin[y, x], side, side_lin, u)
+                    best = (max(best[0], other[0]), max(best[1], other[1]))
+            tinted[y, x], untinted[y, x] = best
+    return tinted, untinted

@@ -32,6 +32,8 @@ import cv2
 import numpy as np
 
 from . import grid
+from .kernels import kernel
+from .order import quantiles
 from .params import VisionParams
 
 __all__ = ["descriptors", "texture_rarity"]
@@ -67,34 +69,57 @@ def descriptors(bgr: np.ndarray, scales: tuple[float, ...], surround: float) -> 
     ratio = cv2.log(grey + _FLOOR)  # brightness against the surroundings is a ratio
     # Mean and mean square of the intensity at the finest scale, chroma and log brightness.
     fine = cv2.GaussianBlur(cv2.merge([moments, red_green, yellow_blue, ratio]), (0, 0), scales[0])
-    planes = []
-    for sigma in scales:
+    feats = np.empty((*shape, len(scales) + 3), np.float32)
+    for k, sigma in enumerate(scales):
         blurred = fine if sigma == scales[0] else grid.expand(*grid.surround(moments, sigma), shape)
-        mean, square = cv2.extractChannel(blurred, 0), cv2.extractChannel(blurred, 1)
-        planes.append(cv2.sqrt(np.maximum(square - cv2.multiply(mean, mean), 0.0)))
+        _contrast(blurred, feats, k)
     around = grid.expand(*grid.surround(ratio, surround), shape)
-    planes.append(_likest_side(cv2.extractChannel(fine, 4), around, round(surround)))
-    return cv2.merge([*planes, cv2.extractChannel(fine, 2), cv2.extractChannel(fine, 3)])
+    _likest_side(fine, around, round(surround), feats, len(scales))
+    feats[:, :, -2:] = fine[:, :, 2:4]  # chroma
+    return feats
 
 
-def _likest_side(own: np.ndarray, around: np.ndarray, reach: int) -> np.ndarray:
-    """own - around, with ``around`` taken where it is likest ``own``: centred, or ``reach``
-    pixels up, down, left or right.
+@kernel
+def _contrast(blurred: np.ndarray, feats: np.ndarray, k: int) -> None:
+    """``feats[..., k]``: the local standard deviation from ``blurred``'s mean and mean
+    square (its channels 0 and 1), float32 as the whole-array expression."""
+    zero = np.float32(0.0)
+    for y in range(blurred.shape[0]):
+        for x in range(blurred.shape[1]):
+            mean = blurred[y, x, 0]
+            feats[y, x, k] = np.sqrt(max(blurred[y, x, 1] - mean * mean, zero))
+
+
+@kernel
+def _likest_side(
+    fine: np.ndarray, around: np.ndarray, reach: int, feats: np.ndarray, k: int
+) -> None:
+    """``feats[..., k]``: own - around, own the log brightness (``fine``'s channel 4), with
+    ``around`` taken where it is likest own: centred, or ``reach`` pixels up, down, left or
+    right (the edge repeated beyond the frame); the first likest in that order.
 
     Next to a step between two common surfaces (a bed contact, the sky's edge, a rock's
     lit side against its shadow) the centred surround mixes both and every pixel there
     looks brighter or darker than it; one side is its own surface and says it is not. A
     pebble, a vein or a stain differs from every side and keeps its contrast.
     """
-    rows, cols = own.shape
-    padded = cv2.copyMakeBorder(around, reach, reach, reach, reach, cv2.BORDER_REPLICATE)
-    best, gap = cv2.subtract(own, around), cv2.absdiff(own, around)
-    for dy, dx in ((0, reach), (2 * reach, reach), (reach, 0), (reach, 2 * reach)):
-        side = padded[dy : dy + rows, dx : dx + cols]
-        here = cv2.absdiff(own, side)
-        cv2.copyTo(cv2.subtract(own, side), cv2.compare(here, gap, cv2.CMP_LT), best)
-        cv2.min(gap, here, dst=gap)
-    return best
+    rows, cols = around.shape
+    for y in range(rows):
+        up, down = max(y - reach, 0), min(y + reach, rows - 1)
+        for x in range(cols):
+            own = fine[y, x, 4]
+            best = own - around[y, x]
+            gap = abs(best)
+            for side in (
+                around[up, x],
+                around[down, x],
+                around[y, max(x - reach, 0)],
+                around[y, min(x + reach, cols - 1)],
+            ):
+                here = abs(own - side)
+                if here < gap:
+                    best, gap = own - side, here
+            feats[y, x, k] = best
 
 
 def texture_rarity(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
@@ -124,8 +149,9 @@ def texture_rarity(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
     ridge = 1e-6 * np.eye(dims)
     for _ in range(params.texture_steps):
         dist = _mahalanobis(sample, mean, cov + ridge)
-        keep = dist <= np.quantile(dist, 1.0 - params.texture_trim)
-        mean, cov = sample[keep].mean(0), np.cov(sample[keep], rowvar=False)
+        keep = dist <= quantiles(dist, 1.0 - params.texture_trim)
+        kept = sample[keep]
+        mean, cov = kept.mean(0), np.cov(kept, rowvar=False)
     return _mahalanobis(flat, mean, cov + ridge).reshape(rows, cols)
 
 

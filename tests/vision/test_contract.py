@@ -20,6 +20,7 @@ FIELDS = [
     "classes",
     "timing_ms",
     "products",
+    "notes",
 ]
 POINT_FIELDS = [
     "rank",

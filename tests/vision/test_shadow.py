@@ -8,7 +8,7 @@ import pytest
 from cyborg.daemon.sim.scene import SKY_SHADE
 from cyborg.daemon.vision.params import DEFAULT, UNCOMMON, VisionParams
 from cyborg.daemon.vision.pipeline import analyze
-from cyborg.daemon.vision.shadow import _project, _reference, shadow_likelihood
+from cyborg.daemon.vision.shadow import _shade, shadow_likelihood
 
 RED_ROCK = (60, 80, 150)
 
@@ -209,22 +209,22 @@ def test_a_shadow_of_a_few_pixels_is_scored() -> None:
 
 def test_a_pure_darkening_shifts_no_colour() -> None:
     """Log colour is taken of the value + 8, so halving a red rock also greys its log
-    colour (0.07 towards blue): the host is darkened the same way before comparing."""
+    colour (0.07 towards blue): the host is darkened the same way before comparing, and a
+    pure darkening of coloured rock is untinted shade, with no sky tint."""
     red = np.float32([[[60, 80, 150]]])
     host = np.log(red + 8.0).astype(np.float32)
+    u = tuple(np.array(DEFAULT.shadow_tint) / np.hypot(*DEFAULT.shadow_tint))
+
+    def along(logs: np.ndarray) -> float:  # log(B / R), log(G / R) along the illuminant line
+        return float(
+            (logs[0, 0, 0] - logs[0, 0, 2]) * u[0] + (logs[0, 0, 1] - logs[0, 0, 2]) * u[1]
+        )
+
     for k in (0.8, 0.5, 0.3):
         own = np.log(red * k + 8.0).astype(np.float32)
-        mine = _project(own, DEFAULT.shadow_tint)
-        darkness, along, across = (
-            float(np.ravel(a - b)[0])
-            for a, b in zip(mine, _reference(host, own, DEFAULT.shadow_tint), strict=True)
-        )
-        assert abs(along) < 1e-4 and abs(across) < 1e-4, k
-        assert darkness > 0
-    naive = np.ravel(
-        _project(own, DEFAULT.shadow_tint)[1] - _project(host, DEFAULT.shadow_tint)[1]
-    )[0]
-    assert naive > 0.05  # what the plain comparison read as sky shade
+        tinted, untinted = _shade(own, host, DEFAULT.shadow_tint, 1)
+        assert float(tinted[0, 0]) < 1e-3 and float(untinted[0, 0]) > 0.4, k
+    assert along(own) - along(host) > 0.05  # what the plain comparison read as sky shade
 
 
 def test_a_stain_with_its_colour_barely_deepened_is_not_shade() -> None:

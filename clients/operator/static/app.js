@@ -70,6 +70,8 @@ function onState(s) {
   $("control").textContent = `control: ${holder === s.me ? "you" : holder || "nobody"}`;
   $("pose").textContent = s.ptu ? `PTU pan ${fmt(s.ptu.pan)}° tilt ${fmt(s.ptu.tilt)}° ${s.ptu.moving ? "moving" : "still"}` : "PTU ?";
   $("state").textContent = s.status ? `${s.status.state} ${s.status.station || ""} ${s.status.station ? s.status.distance_m + " m" : ""}` : "state ?";
+  // Left at "rig's", the next station takes the aim the rig names (protocol 2.5).
+  $("aim").options[0].textContent = s.status && s.status.aim ? `aim: rig's (${s.status.aim})` : "aim: rig's";
   showProgress(s.progress, s.result);
   showResult(s.result, s.chips);
   $("log").replaceChildren(...s.log.map((e) => {
@@ -102,7 +104,7 @@ function showResult(r, chips) {
     return;
   }
   const [session, name] = r.station.split("/");
-  $("station").textContent = `Interest points of ${r.station}`;
+  $("station").textContent = `Interest points of ${r.station}` + (r.aim ? ` (aim ${r.aim})` : "");
   $("points").tBodies[0].replaceChildren(...r.points.map((p) => {
     const tr = document.createElement("tr");
     tr.innerHTML = `<td>${p.rank}</td><td>${p.score.toFixed(2)}</td><td>${fmt(p.pan)}</td><td>${fmt(p.tilt)}</td><td class="why"></td>`;
@@ -149,6 +151,35 @@ async function send(command, body = {}) {
   return reply;
 }
 
+// The aims of study come from the protocol (GET /api/aims): a kind sought first, and kinds
+// set aside, each explained where the operator points at it.
+async function listAims() {
+  const aims = await fetch("/api/aims").then((r) => r.json()).catch(() => ({ kinds: {}, exclusions: {} }));
+  $("aim").append(...Object.entries(aims.kinds).map(([name, meaning]) => {
+    const o = document.createElement("option");
+    o.value = name;
+    o.textContent = `aim: ${name}`;
+    o.title = meaning;
+    return o;
+  }));
+  $("aside").replaceChildren(...Object.entries(aims.exclusions).map(([name, meaning]) => {
+    const label = document.createElement("label");
+    label.title = meaning;
+    const box = document.createElement("input");
+    box.type = "checkbox";
+    box.value = name;
+    label.append(box, ` ${name}`);
+    return label;
+  }));
+}
+
+// The aim sent with a survey start: none chosen leaves it to the rig; the rig checks it.
+function chosenAim() {
+  const aside = [...document.querySelectorAll("#aside input:checked")].map((b) => b.value);
+  if (!$("aim").value && !aside.length) return null;
+  return [$("aim").value || "any", ...aside].join("+");
+}
+
 // The commands the console takes come from the protocol's registry (GET /api/commands:
 // {verb: {moves, read_only}}); a button whose command moves the head says it needs control.
 async function describeCommands() {
@@ -184,11 +215,13 @@ window.addEventListener("DOMContentLoaded", () => {
   // A plain button sends the command its data-verb names; the registry says which need control.
   for (const b of document.querySelectorAll("button[data-verb]")) b.onclick = () => send(b.dataset.verb);
   describeCommands();
+  listAims();
   // A station's own settings (protocol 2.2), NAME=VALUE separated by spaces; none typed: the
   // rig's configured ones. The rig checks them, and says why it refuses.
   $("survey").onclick = () => {
     const settings = $("settings").value.split(/\s+/).filter(Boolean);
-    send("survey/start", settings.length ? { settings } : {});
+    const aim = chosenAim();
+    send("survey/start", { ...(settings.length ? { settings } : {}), ...(aim ? { aim } : {}) });
   };
   $("choose0").onclick = () => state && state.result && send("target/choose", { station: state.result.station, rank: 0 });
   $("layer").onchange = showLayer;
