@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo rig test bench bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security bench-printed bench-novelty bench-targets bench-sizes bench-aims bench-archive bench-nodata lint clean
+.PHONY: demo rig test bench bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security bench-printed bench-novelty bench-targets bench-sizes bench-aims bench-archive bench-nodata bench-mosaic bench-chips lint clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -28,7 +28,7 @@ test: $(STAMP)
 	$(PY) -m ruff check .
 	$(PY) -m pytest -q
 
-bench: bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security bench-printed bench-novelty bench-targets bench-sizes bench-aims bench-archive bench-nodata
+bench: bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security bench-printed bench-novelty bench-targets bench-sizes bench-aims bench-archive bench-nodata bench-mosaic bench-chips
 
 bench-quality: $(STAMP)
 	$(PY) -m bench.quality --scenes 120
@@ -88,6 +88,14 @@ bench-archive: $(STAMP)
 # The real images framed as mosaic tiles and turned panoramas with a black no-data fill.
 bench-nodata: $(STAMP)
 	$(PY) -m bench.nodata
+
+# Butted vs pose-only vs registered mosaics from a head and camera with their flaws on (issue 45).
+bench-mosaic: $(STAMP)
+	$(PY) -m bench.mosaic --scenes 60
+
+# Chips re-pointed at their targets with a 0.3 deg pointing error on, with and without refinement.
+bench-chips: $(STAMP)
+	$(PY) -m bench.chips --stations 20
 
 bench-edges: $(STAMP)
 	$(PY) -m bench.edges

@@ -13,6 +13,9 @@ colour conversion, two 2-D pair histograms (on the pipeline's row lattice above
 ``cooc_max_pairs``) and one lookup table per plane, and the hue lookup. What the pipeline
 spends above them is glue: the SIMD passes that vote, label, count and sum.
 
+Times are CPU times of the benchmark's process (one thread of each native pool by default, as
+the rig runs), so other work on the machine does not count.
+
 Usage: ``python -m bench.speed [--repeats 3] [--threads 1] [--json]``.
 """
 
@@ -55,11 +58,13 @@ def test_image(shape: tuple[int, int], seed: int = 11) -> np.ndarray:
 
 
 def _median_ms(fn, repeats: int) -> float:
+    """Median CPU time of ``fn`` (this process's, ms): on a shared machine the wall clock
+    also counts the other processes' turns."""
     times = []
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         fn()
-        times.append((time.perf_counter() - t0) * 1e3)
+        times.append((time.process_time() - t0) * 1e3)
     return statistics.median(times)
 
 

@@ -10,7 +10,8 @@ what everything else costs; goal ≤ 1.10.
 
 Conditions: nobody watching the live view, and one client watching at 10 fps.
 
-Usage: ``python -m bench.survey [--runs 3] [--rows 2 --cols 3] [--time-scale 1] [--json]``.
+Usage: ``python -m bench.survey [--runs 3] [--rows 2 --cols 3] [--time-scale 1] [--overlap 0]
+[--json]``.
 """
 
 from __future__ import annotations
@@ -30,7 +31,14 @@ from cyborg.protocol.transport import Transport
 
 
 async def _condition(
-    work: Path, rows: int, cols: int, *, runs: int, time_scale: float, watch: bool
+    work: Path,
+    rows: int,
+    cols: int,
+    *,
+    runs: int,
+    time_scale: float,
+    watch: bool,
+    overlap: float = 0.0,
 ) -> dict:
     port = free_port()
     archive = work / f"archive-{'watched' if watch else 'unwatched'}"
@@ -42,6 +50,7 @@ async def _condition(
             listen=[f"tcp/127.0.0.1:{port}"],
             time_scale=time_scale,
             frame_rate=10.0 if watch else 0.0,
+            survey={"overlap": overlap},
         )
     )
     async with launch(["--config", str(config)], work / "cyborgd.log"):
@@ -70,6 +79,7 @@ async def _condition(
                 "motion_model_s": motion,
                 "grab_s": t["grab_s"],
                 "analysis_s": t["analysis_s"],
+                "compose_s": t.get("compose_s", 0.0),
                 "lower_bound_s": bound,
                 "ratio": t["wall_s"] / bound,
             }
@@ -88,6 +98,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rows", type=int, default=2)
     ap.add_argument("--cols", type=int, default=3)
     ap.add_argument("--time-scale", type=float, default=1.0)
+    ap.add_argument("--overlap", type=float, default=0.0, help="tiles' overlap (registered)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix="bench-survey-") as tmp:
@@ -100,6 +111,7 @@ def main(argv: list[str] | None = None) -> int:
                     runs=args.runs,
                     time_scale=args.time_scale,
                     watch=watch,
+                    overlap=args.overlap,
                 )
             )
             for watch in (False, True)
@@ -108,19 +120,19 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(out, indent=1))
         return 0
     print(
-        f"survey of a {args.rows}x{args.cols} mosaic + 3 chips, PTU emulator on a pty at 9600 "
-        f"baud, time scale {args.time_scale:g}"
+        f"survey of a {args.rows}x{args.cols} mosaic (overlap {args.overlap:g}) + 3 chips, PTU "
+        f"emulator on a pty at 9600 baud, time scale {args.time_scale:g}"
     )
     print(
         f"{'live view':<12} {'wall s':>7} {'motion s':>9} {'grab s':>7} {'analysis s':>11} "
-        f"{'bound s':>8} {'ratio':>6}"
+        f"{'compose s':>10} {'bound s':>8} {'ratio':>6}"
     )
     for cond in out:
         for r in cond["runs"]:
             print(
                 f"{'watched' if cond['watched'] else 'off':<12} {r['wall_s']:7.2f} "
                 f"{r['motion_model_s']:9.2f} {r['grab_s']:7.3f} {r['analysis_s']:11.3f} "
-                f"{r['lower_bound_s']:8.2f} {r['ratio']:6.3f}"
+                f"{r['compose_s']:10.3f} {r['lower_bound_s']:8.2f} {r['ratio']:6.3f}"
             )
     for cond in out:
         name = "watched" if cond["watched"] else "live view off"

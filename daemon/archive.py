@@ -89,21 +89,33 @@ class Station:
         self._record(rel, path.stat().st_size)
 
     def add_tile(
-        self, row: int, col: int, image: np.ndarray, pose: tuple[float, float], t: float
+        self,
+        row: int,
+        col: int,
+        image: np.ndarray,
+        pose: tuple[float, float],
+        t: float,
+        **fields: Any,
     ) -> str:
-        """Archive a mosaic tile as shot and list it (pose, time) in the manifest; its path."""
+        """Archive a mosaic tile as shot and list it (pose, time, ``fields`` such as its
+        registration) in the manifest; its path."""
         rel = f"tiles/r{row}c{col}.png"
         self._put_png(rel, image)
         entry = {"file": rel, "row": row, "col": col, "pan": pose[0], "tilt": pose[1], "t": t}
+        entry |= fields
         self.manifest.setdefault("tiles", []).append(entry)
         self.save()
         return rel
 
-    def add_chip(self, rank: int, image: np.ndarray, pose: tuple[float, float], t: float) -> str:
-        """Archive the full-resolution chip of point ``rank`` and list it; its path."""
+    def add_chip(
+        self, rank: int, image: np.ndarray, pose: tuple[float, float], t: float, **fields: Any
+    ) -> str:
+        """Archive the full-resolution chip of point ``rank`` and list it (pose, time,
+        ``fields`` such as its centring); its path."""
         rel = f"chips/chip{rank}.png"
         self._put_png(rel, image)
         entry = {"file": rel, "rank": rank, "pan": pose[0], "tilt": pose[1], "t": t}
+        entry |= fields
         self.manifest.setdefault("chips", []).append(entry)
         self.save()
         return rel

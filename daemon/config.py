@@ -65,6 +65,10 @@ class SurveyConfig:
     rows: int = 2
     cols: int = 3
     downsample: float = 4.0
+    overlap: float = 0.0
+    """Share (0..0.5) of a field of view neighbouring tiles overlap: above 0 the mosaic is
+    registered and projected (``survey.stitch``), 0 butts the frames as the seed did; the
+    ``paper`` profile always butts them."""
     profile: str = "default"
     settings: tuple[str, ...] = ()
     """``NAME=VALUE`` changes to whichever vision profile a survey uses, as ``cyborgd analyze
@@ -175,6 +179,7 @@ def validate(cfg: Config) -> Config:
         (1 <= cfg.frames.jpeg_quality <= 100, "frames.jpeg_quality must be 1..100"),
         (1 <= s.rows <= 16 and 1 <= s.cols <= 32, "survey.rows 1..16 and survey.cols 1..32"),
         (1 <= s.downsample <= 16, "survey.downsample must be 1..16"),
+        (0 <= s.overlap <= 0.5, "survey.overlap must be 0..0.5"),
         (s.profile in PROFILES, f"survey.profile must be one of {', '.join(sorted(PROFILES))}"),
         (
             len(s.approach) >= 1 and all(isinstance(d, int | float) and d > 0 for d in s.approach),

@@ -8,6 +8,7 @@ round trip on a 9600-baud line, and clients get state without polling the unit.
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -42,9 +43,15 @@ class Control:
 
 class Rig:
     def __init__(self, ptu: PanTiltUnit, camera: Callable[[PoseSource], Camera] | Camera) -> None:
-        """``camera`` may be a factory taking the pose source (simulated cameras need it)."""
+        """``camera`` may be a factory taking the pose source (simulated cameras need it):
+        an emulated head with errors says where it truly looks, otherwise the reported pose."""
         self.ptu = ptu
-        self.camera = camera if isinstance(camera, Camera) else camera(self.pose_angles)
+        self._truth: PoseSource | None = None
+        if isinstance(camera, Camera):
+            self.camera = camera
+        else:
+            self._truth = getattr(ptu, "true_pose", None)
+            self.camera = camera(self._truth or self.pose_angles)
         self.control = Control()
         self._grab_lock = asyncio.Lock()
         self._pose = PtuPosition(0.0, 0.0, 0, 0, False, 0.0)
@@ -75,8 +82,14 @@ class Rig:
         return self._pose.pan, self._pose.tilt
 
     async def grab(self) -> Frame:
+        """The camera's next frame. One rendered from where an emulated head truly looks is
+        labelled with the pose the head reported, as a real rig knows only that."""
         async with self._grab_lock:
-            return await self.camera.grab()
+            reported = self._pose
+            frame = await self.camera.grab()
+        if self._truth is None or frame.pose is None:
+            return frame
+        return dataclasses.replace(frame, pose=(reported.pan, reported.tilt))
 
     async def move_to(self, pan: float, tilt: float) -> PtuPosition:
         """Move and wait until the head stands still; the pose cache follows."""

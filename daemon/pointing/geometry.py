@@ -12,6 +12,7 @@ re-pointing stays right at the edges of a wide field of view and at steep tilts.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -21,6 +22,7 @@ import numpy as np
 __all__ = [
     "CameraModel",
     "MosaicGeometry",
+    "SphericalMosaic",
     "angles_to_pixel",
     "degrees_to_positions",
     "pixel_centre",
@@ -207,9 +209,15 @@ class MosaicGeometry:
         w, h = self.tile_size
         return w * self.cols, h * self.rows
 
+    def _steps(self) -> tuple[float, float]:
+        """(pan, tilt) degrees between neighbouring tiles unless the plan set them: a field
+        of view, butted."""
+        return self.camera.hfov, self.camera.vfov
+
     def tile_pose(self, row: int, col: int) -> tuple[float, float]:
-        sp = self.step_pan if self.step_pan is not None else self.camera.hfov
-        st = self.step_tilt if self.step_tilt is not None else self.camera.vfov
+        fov_pan, fov_tilt = self._steps()
+        sp = self.step_pan if self.step_pan is not None else fov_pan
+        st = self.step_tilt if self.step_tilt is not None else fov_tilt
         return (
             self.pan0 + (col - (self.cols - 1) / 2.0) * sp,
             self.tilt0 - (row - (self.rows - 1) / 2.0) * st,
@@ -272,16 +280,35 @@ class MosaicGeometry:
 
     @classmethod
     def from_plan(cls, plan: dict[str, Any]) -> MosaicGeometry:
-        """The geometry an archived ``plan`` describes; KeyError or TypeError if it is not
-        one."""
+        """The geometry an archived ``plan`` describes (a :class:`SphericalMosaic` if it
+        overlaps); KeyError or TypeError if it is not one."""
         cam = plan["camera"]
-        return cls(
+        return MosaicGeometry(
             CameraModel(cam["width"], cam["height"], cam["hfov"]),
             plan["rows"],
             plan["cols"],
             plan["pan0"],
             plan["tilt0"],
             plan["downsample"],
+        ).overlapping(plan.get("overlap", 0.0))
+
+    def overlapping(self, overlap: float) -> MosaicGeometry:
+        """This plan with frames overlapping by ``overlap`` of a field of view, projected
+        (:class:`SphericalMosaic`); 0 keeps them butted, the seed's way.
+
+        >>> type(MosaicGeometry(CameraModel(), 2, 3).overlapping(0.3)).__name__
+        'SphericalMosaic'
+        """
+        if overlap == 0.0:
+            return self
+        return SphericalMosaic(
+            self.camera,
+            self.rows,
+            self.cols,
+            self.pan0,
+            self.tilt0,
+            self.downsample,
+            overlap=overlap,
         )
 
     def serpentine(self) -> list[tuple[int, int]]:
@@ -342,4 +369,121 @@ class MosaicGeometry:
                 if -_SEAM <= x < width + _SEAM and -_SEAM <= y < height + _SEAM:
                     x, y = min(max(x, 0.0), width), min(max(y, 0.0), height)
                     return col * w + x / fx, row * h + y / fy
+        return None
+
+
+CROP_MARGIN_DEG = 0.5
+"""Margin (degrees) the spherical canvas keeps inside what the planned tiles cover: where the
+head's pointing errors (a few tenths of a degree) would leave a sliver uncovered."""
+
+
+@dataclass(frozen=True)
+class SphericalMosaic(MosaicGeometry):
+    """An M×N mosaic of frames overlapping by ``overlap`` of a field of view, projected onto
+    one equirectangular (spherical) canvas: mosaic column ↔ pan and row ↔ tilt, linearly,
+    at the reduced tile's resolution at its centre (``daemon.survey.stitch`` paints it).
+
+    Pixel index (j, i) samples pan ``(u0 + j) / scale`` and ``π/2 - tilt`` ``(v0 + i) /
+    scale`` radians, (u0, v0) being :attr:`origin`: OpenCV's spherical warper's
+    coordinates, so a warped frame's corner is its place in the mosaic. The canvas is cropped
+    to what the planned tiles all cover, as panorama tools crop: a frame's projected edges
+    bow, and the slivers between them and a bounding box, a few pixels wide, would be
+    no-data too small for the science to tell from image (``vision.nodata``) and a black step
+    it would take for texture. What no frame covers (the head's errors beyond the margin) is
+    no-data (black).
+    """
+
+    overlap: float = 0.3
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.overlap <= 0.5:
+            raise ValueError(f"overlap must be in (0, 0.5], got {self.overlap!r}")
+
+    def _steps(self) -> tuple[float, float]:
+        keep = 1.0 - self.overlap
+        return self.camera.hfov * keep, self.camera.vfov * keep
+
+    @property
+    def scale(self) -> float:
+        """Mosaic pixels per radian: the reduced tile's focal length."""
+        return self.camera.scaled(self.downsample).focal
+
+    @functools.cached_property
+    def _canvas(self) -> tuple[int, int, int, int]:
+        """(u0, v0, width, height) of the canvas: the largest rectangle the planned tiles
+        cover (their projected edges bow), less :data:`CROP_MARGIN_DEG` all round."""
+        cam, along = self.camera, np.linspace(0.0, 1.0, 33)
+        edges = {  # a frame's edge as (x, y) pixel arrays, by side
+            "left": (np.zeros_like(along), along * cam.height),
+            "right": (np.full_like(along, cam.width), along * cam.height),
+            "top": (along * cam.width, np.zeros_like(along)),
+            "bottom": (along * cam.width, np.full_like(along, cam.height)),
+        }
+
+        def reach(side: str, tiles: list[tuple[int, int]]) -> np.ndarray:
+            """Canvas (u, v) of ``side`` of every tile of ``tiles``, stacked."""
+            pans, tilts = zip(
+                *(pixel_to_angles(*edges[side], *self.tile_pose(r, c), cam) for r, c in tiles),
+                strict=True,
+            )
+            u = self.scale * np.radians(np.concatenate(pans))
+            return np.stack([u, self.scale * (math.pi / 2 - np.radians(np.concatenate(tilts)))])
+
+        rows, cols = range(self.rows), range(self.cols)
+        margin = self.scale * math.radians(CROP_MARGIN_DEG)
+        u0 = math.ceil(reach("left", [(r, 0) for r in rows])[0].max() + margin)
+        u1 = math.floor(reach("right", [(r, self.cols - 1) for r in rows])[0].min() - margin)
+        v0 = math.ceil(reach("top", [(0, c) for c in cols])[1].max() + margin)
+        v1 = math.floor(reach("bottom", [(self.rows - 1, c) for c in cols])[1].min() - margin)
+        return u0, v0, u1 - u0 + 1, v1 - v0 + 1
+
+    @property
+    def origin(self) -> tuple[int, int]:
+        """(u0, v0): the spherical warper's coordinates of mosaic pixel index (0, 0)."""
+        return self._canvas[:2]
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return self._canvas[2:]
+
+    @property
+    def degrees_per_pixel(self) -> float:
+        """One mosaic pixel's width in degrees (exact along the equator, in tilt everywhere)."""
+        return math.degrees(1.0 / self.scale)
+
+    def to_plan(self, **extra: Any) -> dict[str, Any]:
+        """:meth:`MosaicGeometry.to_plan` plus the overlap and the projection.
+
+        >>> g = SphericalMosaic(CameraModel(360, 288, 30.0), 2, 3, 5.0, -1.0, 4.0, overlap=0.25)
+        >>> MosaicGeometry.from_plan(g.to_plan(profile="default")) == g
+        True
+        """
+        return super().to_plan(**extra) | {"overlap": self.overlap, "projection": "spherical"}
+
+    def to_angles(self, mx: float, my: float) -> tuple[float, float]:
+        """World (pan, tilt) of a mosaic pixel (continuous, pixel k's centre at k + 0.5).
+
+        >>> g = SphericalMosaic(CameraModel(720, 576, 30.0), 2, 3, downsample=4)
+        >>> [round(v, 6) for v in g.to_angles(*g.to_mosaic(-21.0, 8.5))]
+        [-21.0, 8.5]
+        """
+        u0, v0 = self.origin
+        pan = (u0 + pixel_index(mx)) / self.scale
+        tilt = math.pi / 2 - (v0 + pixel_index(my)) / self.scale
+        return math.degrees(pan), math.degrees(tilt)
+
+    def to_mosaic(self, pan_w: float, tilt_w: float) -> tuple[float, float] | None:
+        """Mosaic pixel where a world direction appears, or ``None`` if it lies beyond the
+        canvas or no planned tile saw it."""
+        u0, v0 = self.origin
+        mx = pixel_centre(self.scale * math.radians(pan_w) - u0)
+        my = pixel_centre(self.scale * (math.pi / 2 - math.radians(tilt_w)) - v0)
+        width, height = self.size
+        if not (0.0 <= mx < width and 0.0 <= my < height):
+            return None
+        cam = self.camera
+        for row, col in self.serpentine():
+            x, y = angles_to_pixel(pan_w, tilt_w, *self.tile_pose(row, col), cam)
+            if -_SEAM <= float(x) < cam.width + _SEAM and -_SEAM <= float(y) < cam.height + _SEAM:
+                return mx, my
         return None

@@ -1,15 +1,22 @@
-"""Backends around the emulator: in-process (``emu://``) and on a pty (``pty://``)."""
+"""Backends around the emulator: in-process (``emu://``) and on a pty (``pty://``).
+
+Both take ``model``, ``time_scale`` and a real head's errors (:class:`HeadErrors`:
+``pointing_error``, ``backlash``, ``error_seed``), and expose where the head truly looks as
+:attr:`EmulatedPtu.true_pose` for a simulated camera to render from.
+"""
 
 from __future__ import annotations
 
 import asyncio
 import tempfile
+from collections.abc import Awaitable, Callable
 from pathlib import Path
 from urllib.parse import parse_qs, urlsplit
 
 from .base import LinkState
 from .commanded import CommandedPtu
 from .emulator import Ptu46Emulator
+from .emulator_errors import HeadErrors
 from .errors import PtuConnectionError, PtuTimeoutError
 from .models import MODELS
 from .ptyserver import BANNER, Fault, PtyEmulatorServer, parse_fault
@@ -23,11 +30,28 @@ _POLL = 0.002
 
 
 def _emulator(query: dict[str, list[str]]) -> Ptu46Emulator:
-    """The emulator a URL's query asks for: ``model`` (default D46-17), ``time_scale``."""
+    """The emulator a URL's query asks for: ``model`` (default D46-17), ``time_scale`` and
+    the head's errors (:meth:`HeadErrors.from_query`, none by default)."""
     name = query.get("model", ["D46-17"])[-1]
     if name not in MODELS:
         raise ValueError(f"unknown PTU model {name!r}; known: {', '.join(MODELS)}")
-    return Ptu46Emulator(MODELS[name], time_scale=float(query.get("time_scale", ["1"])[-1]))
+    return Ptu46Emulator(
+        MODELS[name],
+        time_scale=float(query.get("time_scale", ["1"])[-1]),
+        errors=HeadErrors.from_query(query),
+    )
+
+
+def _true_pose(emulator: Ptu46Emulator) -> Callable[[], Awaitable[tuple[float, float]]] | None:
+    """Where the emulated head truly looks, as a camera's pose source; None without errors,
+    where what the unit reports is the truth."""
+    if not emulator.errors.enabled:
+        return None
+
+    async def pose() -> tuple[float, float]:
+        return emulator.pointing()
+
+    return pose
 
 
 class EmulatedPtu(CommandedPtu):
@@ -41,8 +65,14 @@ class EmulatedPtu(CommandedPtu):
 
     @classmethod
     def from_url(cls, url: str) -> EmulatedPtu:
-        """``emu://?model=D46-17&time_scale=10``."""
+        """``emu://?model=D46-17&time_scale=10&pointing_error=0.3&backlash=0.1&error_seed=7``."""
         return cls(_emulator(parse_qs(urlsplit(url).query)))
+
+    @property
+    def true_pose(self) -> Callable[[], Awaitable[tuple[float, float]]] | None:
+        """Where the head truly looks (pan, tilt degrees), for a simulated camera; None
+        when the emulator plays no errors."""
+        return _true_pose(self.emulator)
 
     async def open(self) -> None:
         self._state = LinkState.CONNECTING
@@ -113,6 +143,11 @@ class PtyPtu(SerialPtu):
         banner = BANNER if query.get("banner", ["0"])[-1] not in ("0", "") else None
         baud = int(query.get("baud", ["9600"])[-1])
         return cls(_emulator(query), faults=faults, banner=banner, baud=baud)
+
+    @property
+    def true_pose(self) -> Callable[[], Awaitable[tuple[float, float]]] | None:
+        """As :attr:`EmulatedPtu.true_pose`."""
+        return _true_pose(self.server.emulator)
 
     async def open(self) -> None:
         if not self.server.connected:

@@ -5,6 +5,9 @@ It follows ``shared/reference/ptu46.md``: echo on and verbose feedback at power-
 beyond them that report ``!P``/``!T``), immediate and slaved execution, ``A`` answering
 only when motion ends, ``R`` calibration, the trapezoid profile integrated exactly so a
 query mid-move shows where the head is, and power-up defaults with ``DS/DR/DF``.
+With :class:`~.emulator_errors.HeadErrors` it also plays a real head's pointing error and
+backlash: it reports its step count while :meth:`Ptu46Emulator.pointing` says where the head
+truly looks (what a simulated camera renders from).
 
 The command table is :mod:`.emulator_commands`. Transport lives elsewhere:
 :mod:`daemon.ptu.ptyserver` puts this on a pseudo-terminal,
@@ -20,6 +23,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from .emulator_commands import HANDLERS
+from .emulator_errors import HeadErrors
 from .models import MODELS, PtuModel
 from .motion import Axis, move_time
 
@@ -51,6 +55,8 @@ class _AxisState:
     move_power: str = "REGULAR"
     stalled: bool = False
     """Ran into a mechanical stop; the step count is no longer trusted until ``R``."""
+    shaft: float = 0.0
+    """Where the output shaft is, positions: the motor's position, give or take backlash."""
 
     @property
     def position(self) -> int:
@@ -75,6 +81,8 @@ class Ptu46Emulator:
     time_scale: float = 1.0
     """Emulated seconds per real second (> 1 runs faster than real time)."""
     clock: Callable[[], float] = time.monotonic
+    errors: HeadErrors = field(default_factory=HeadErrors)
+    """A real head's pointing error and backlash (none by default)."""
 
     def __post_init__(self) -> None:
         if self.time_scale <= 0:
@@ -122,7 +130,21 @@ class Ptu46Emulator:
                 ax.motion.target, ax.motion.velocity = ax.motion.position, 0.0
                 ax.stalled = True
                 out += b"!" + ax.letter.encode() + b"\r\n"
+            half = self._band(ax) / 2.0
+            ax.shaft = min(max(ax.shaft, ax.motion.position - half), ax.motion.position + half)
         return out
+
+    def _band(self, ax: _AxisState) -> float:
+        """The axis's backlash, positions."""
+        return self.errors.backlash[ax is self.tilt] * 3600.0 / ax.resolution
+
+    def pointing(self) -> tuple[float, float]:
+        """Where the head truly looks, (pan, tilt) degrees, as of the last time the emulator
+        ran: the output shafts plus the pointing error (the reported count when there are no
+        errors and the head is still)."""
+        pan, tilt = (ax.shaft * ax.resolution / 3600.0 for ax in (self.pan, self.tilt))
+        dp, dt = self.errors.offset(pan, tilt)
+        return pan + dp, tilt + dt
 
     # -- I/O -----------------------------------------------------------------------------
 
@@ -213,7 +235,7 @@ class Ptu46Emulator:
         """Power off and on: saved defaults come back, the head calibrates to (0, 0)."""
         self._restore(self._saved)
         for ax in (self.pan, self.tilt):
-            ax.motion.position = ax.motion.target = ax.motion.velocity = 0.0
+            ax.motion.position = ax.motion.target = ax.motion.velocity = ax.shaft = 0.0
             ax.pending, ax.stalled = None, False
         self._token.clear()
         self._queue.clear()
@@ -264,7 +286,7 @@ class Ptu46Emulator:
 
         def done() -> None:
             for ax in (self.pan, self.tilt):
-                ax.motion.position = ax.motion.target = ax.motion.velocity = 0.0
+                ax.motion.position = ax.motion.target = ax.motion.velocity = ax.shaft = 0.0
                 ax.stalled = False
 
         for ax in (self.pan, self.tilt):

@@ -1,14 +1,18 @@
 """Acquisition: a station's tiles and chips.
 
-Tiles are shot in serpentine order, each reduced, placed in the mosaic and archived while
-the head already moves to the next; chips are full-resolution frames at the interest
-points, each saved and published while the head moves on.
+Tiles are shot in serpentine order, each reduced, placed in the mosaic (butted, or
+registered on the tiles before it, warped and its seams cut when they overlap: ``stitch``)
+and archived while the head already moves to the next; only an overlapping mosaic's gains
+and blending wait for the last tile. Chips
+are full-resolution frames at the interest points, each saved and published while the head
+moves on.
 """
 
 from __future__ import annotations
 
 import asyncio
 import functools
+import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -20,12 +24,16 @@ from cyborg.protocol.messages import Chip, InterestPoint
 
 from ..archive import Station
 from ..camera import Frame
-from ..pointing.geometry import MosaicGeometry
+from ..pointing.geometry import MosaicGeometry, SphericalMosaic
 from ..ptu import PtuInfo, PtuLimitError, PtuPosition
 from ..rig import Rig
 from ..vision.imageio import encode_image
+from .refine import Centring, approach, measure
+from .stitch import Stitcher
 
 __all__ = ["CHIPS", "Acquisition", "check_reach"]
+
+_LOGGER = logging.getLogger(__name__)
 
 CHIPS = 3
 
@@ -79,7 +87,12 @@ class Acquisition:
         mosaic = np.zeros((height, width, 3), np.uint8)
         order = geometry.serpentine()
         ptu = self.rig.ptu
-        place = functools.partial(_place, station, mosaic, geometry.tile_size)
+        stitcher = Stitcher(geometry) if isinstance(geometry, SphericalMosaic) else None
+        place: Callable[[_Pending], None] = (
+            functools.partial(_register, station, stitcher)
+            if stitcher is not None
+            else functools.partial(_place, station, mosaic, geometry.tile_size)
+        )
         pending: _Pending | None = None
         t0 = time.perf_counter()
         try:
@@ -102,6 +115,10 @@ class Acquisition:
             raise
         if pending is not None:
             await asyncio.to_thread(place, pending)
+        if stitcher is not None:
+            tc = time.perf_counter()
+            mosaic = await asyncio.to_thread(stitcher.compose)
+            self.timing["compose_s"] = time.perf_counter() - tc
         await asyncio.to_thread(station.write_png, "mosaic.png", mosaic)
         return mosaic
 
@@ -111,30 +128,86 @@ class Acquisition:
         station_id: str,
         points: list[InterestPoint],
         publish: Callable[[Chip], None],
+        reference: tuple[np.ndarray, MosaicGeometry] | None = None,
     ) -> None:
         """Re-point at each of the first :data:`CHIPS` targets and take a full-resolution
         frame; each chip is saved and published while the head already moves to the next.
-        A point marked "no further target" (``target`` false) is not looked at again."""
+        A point marked "no further target" (``target`` false) is not looked at again.
+
+        With a ``reference`` (the station's mosaic and geometry) each chip is registered to
+        it and, if off its target by more than ``refine.CORRECTION_THRESHOLD``, the head is
+        corrected once and the chip retaken; the chip's record says how far off it was."""
         ptu = self.rig.ptu
         chosen = [p for p in points if p.target][:CHIPS]
         saving: asyncio.Task[Chip] | None = None
         for k, point in enumerate(chosen):
             self.progress("chips", k, len(chosen))
+            came_from = self.rig.pose
             self.timing["predicted_motion_s"] += ptu.predict_move_time(point.pan, point.tilt)
             await ptu.move_to(point.pan, point.tilt, wait=False)
             self.rig.mark_moving()
             if saving is not None:
                 publish(await saving)
             position, frame = await self._settle_and_grab()
+            centring: dict[str, object] = {}
+            if reference is not None:
+                position, frame, centring = await self._centre(
+                    point, came_from, position, frame, reference
+                )
             saving = asyncio.create_task(
                 asyncio.to_thread(
-                    _save_chip, station, station_id, point, (position.pan, position.tilt), frame
+                    _save_chip,
+                    station,
+                    station_id,
+                    point,
+                    (position.pan, position.tilt),
+                    frame,
+                    centring=centring,
                 ),
                 name="cyborgd.survey.save-chip",
             )
         if saving is not None:
             publish(await saving)
         self.progress("chips", len(chosen), len(chosen))
+
+    async def _centre(
+        self,
+        point: InterestPoint,
+        came_from: PtuPosition,
+        position: PtuPosition,
+        frame: Frame,
+        reference: tuple[np.ndarray, MosaicGeometry],
+    ) -> tuple[PtuPosition, Frame, dict[str, object]]:
+        """Measure a chip's centring on the mosaic; correct the head once and retake it if
+        it is off, arriving from the side it came from (backlash). The chip kept, and its
+        record: ``before_deg``, ``after_deg`` (the kept chip's; None: not measurable),
+        ``confidence``, ``uncertainty_deg`` (of ``before_deg``), ``corrected``."""
+        target = (point.pan, point.tilt)
+
+        def centring(position: PtuPosition, frame: Frame) -> Centring | None:
+            return measure(frame.image, (position.pan, position.tilt), target, *reference)
+
+        before = await asyncio.to_thread(centring, position, frame)
+        error = None if before is None else round(before.error, 4)
+        record: dict[str, object] = {"before_deg": error, "after_deg": error, "corrected": False}
+        record["confidence"] = 0.0 if before is None else round(before.confidence, 3)
+        record["uncertainty_deg"] = None if before is None else round(before.uncertainty, 4)
+        if before is None or not before.needs_correction:
+            return position, frame, record
+        here = (position.pan, position.tilt)
+        goal = (here[0] + before.offset[0], here[1] + before.offset[1])
+        ptu = self.rig.ptu
+        try:
+            for pan, tilt in approach(here, (came_from.pan, came_from.tilt), goal):
+                self.timing["predicted_motion_s"] += ptu.predict_move_time(pan, tilt)
+                await self.rig.move_to(pan, tilt)
+        except PtuLimitError as exc:  # the chip already taken stands
+            _LOGGER.info("chip %d not corrected: %s", point.rank, exc)
+            return position, frame, record
+        position, frame = await self._settle_and_grab()
+        after = await asyncio.to_thread(centring, position, frame)
+        record.update(corrected=True, after_deg=None if after is None else round(after.error, 4))
+        return position, frame, record
 
 
 def _place(station: Station, mosaic: np.ndarray, tile: tuple[int, int], pending: _Pending) -> None:
@@ -146,12 +219,23 @@ def _place(station: Station, mosaic: np.ndarray, tile: tuple[int, int], pending:
     station.add_tile(row, col, image, (pan, tilt), frame.timestamp)
 
 
+def _register(station: Station, stitcher: Stitcher, pending: _Pending) -> None:
+    """Register a tile on those placed before it, warp it and cut its seams with them;
+    archive it with its correction."""
+    row, col, frame, pose = pending
+    fit = stitcher.add(row, col, frame.image, pose)
+    station.add_tile(row, col, frame.image, pose, frame.timestamp, registration=fit.record())
+
+
 def _save_chip(
     station: Station,
     station_id: str,
     point: InterestPoint,
     pose: tuple[float, float],
     frame: Frame,
+    *,
+    centring: dict[str, object],
 ) -> Chip:
-    rel = station.add_chip(point.rank, frame.image, pose, frame.timestamp)
+    extra = {"centring": centring} if centring else {}
+    rel = station.add_chip(point.rank, frame.image, pose, frame.timestamp, **extra)
     return Chip(station_id, point.rank, *pose, rel, encode_image(frame.image, quality=85))

@@ -166,14 +166,21 @@ class Approach:
         )
 
     def plan(
-        self, req: SurveyStart, centre: tuple[float, float], camera: CameraModel
+        self,
+        req: SurveyStart,
+        centre: tuple[float, float],
+        camera: CameraModel,
+        overlap: float = 0.0,
     ) -> MosaicGeometry:
-        """The mosaic a completed ``req`` shoots through ``camera``. Its centre is always a
-        decision: asked for, aimed at, else ``centre`` (surveyed before, or set up)."""
+        """The mosaic a completed ``req`` shoots through ``camera``, its frames overlapping
+        by ``overlap`` (but butted for the ``paper`` profile, the seed's choice). Its centre
+        is always a decision: asked for, aimed at, else ``centre`` (surveyed before, or set
+        up)."""
         default = self.aim or centre
         pan0 = req.pan0 if req.pan0 is not None else default[0]
         tilt0 = req.tilt0 if req.tilt0 is not None else default[1]
-        return MosaicGeometry(camera, req.rows, req.cols, pan0, tilt0, req.downsample)
+        butted = MosaicGeometry(camera, req.rows, req.cols, pan0, tilt0, req.downsample)
+        return butted.overlapping(0.0 if req.profile == "paper" else overlap)
 
     def previous(self, cfg: SurveyConfig) -> Previous | None:
         """The station this leg was aimed from; None for a first station or an unaimed one."""

@@ -134,7 +134,7 @@ class Survey:
         req = ap.complete(req, cfg)
         check_profile(req.profile, req.settings or ())
         centre = self._last_centre or (cfg.pan0, cfg.tilt0)
-        geometry = ap.plan(req, centre, self.live_camera())
+        geometry = ap.plan(req, centre, self.live_camera(), cfg.overlap)
         check_reach(geometry, self.rig.ptu.info)
         geometry.check_within(self.rig.camera.extent)
         self._last_centre = (geometry.pan0, geometry.tilt0)
@@ -266,7 +266,7 @@ class Survey:
             bodies = [p.to_body() for p in points]
             site, range_m = station.manifest["site"], self._approach.range(self.cfg)
             station.update(points=locate(bodies, site, range_m), products=analysis.products)
-            await shots.chips(station, self.station_id, points, self.tel.chip)
+            await shots.chips(station, self.station_id, points, self.tel.chip, (mosaic, geometry))
             timing["wall_s"] = time.perf_counter() - t0
             station.update(timing=timing)
             station.finish("complete")

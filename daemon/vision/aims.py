@@ -9,12 +9,16 @@ reads (a point's tone against the image, its colour, its shade likelihood, its t
 * dark / bright patches (a stain, a lens, a crust): darker (brighter) than half to three
   quarters of the image and 5-15 % darker (brighter) than the rock a few per cent of the
   diagonal away on all sides but one (at a bed's edge, along a bed or under the skyline,
-  two sides or more are the pixel's own surface: a step is no patch), with a body (the
-  grain is none), not on a layer across the view (bright: not on a bed of that tone across
-  it), neither strongly coloured, green nor sky, and (dark) not probably in shade (bright:
-  a shadow is no rock to be brighter than);
+  two sides or more are the pixel's own surface: a step is no patch; past the frame or in
+  the sky the rock is unseen and counts as its own surface too), with a body (the grain is
+  none), not on a layer across the view (bright: not on a bed of that tone across it), not
+  a sliver lying along the bedding (a piece of a thin bed, a ledge's shadow), neither
+  strongly coloured, green nor sky, and (dark) not probably in shade (bright: a shadow or
+  a stain is no rock to be brighter than);
 * bright veins: the explanation's thin bright lines (``lines``), a connected run a few per
-  cent of the diagonal long, not a shadow's lit rim; a dark patch is not where one crosses;
+  cent of the diagonal long, not a shadow's lit rim, and weighing half when it runs along a
+  contact (a darker bed on one side all along it) rather than across the rock; a dark patch
+  is not where one crosses;
 * colour: a chroma (max - min of B, G, R) three times the image's typical one and at least
   30 of 255, not green;
 * vegetation: green (hue 70-170 degrees) with an excess of green 2G - R - B of 20-50;
@@ -26,11 +30,12 @@ weighted per pixel before the blur (``aimed_map``): once on the sought kind's al
 that the valley rule merged into a plant's patch stands on its own once the plant weighs
 nothing), once with the excluded kinds taken out. Every point is scored on the science's own
 map and given the kind its core looks like (``point_kinds``). The report lists targets
-before "no further target": the sought kind's first (by their height on its kind's own
-map; none when nothing in view is of that kind), then the other kinds, then the excluded
-ones (by score). The science's own best point is always reported, so a striking target of
-another kind is never hidden, only ranked after. ``any`` leaves the points exactly as they
-were (``bench.aims`` measures all this on mixed scenes).
+before "no further target": the sought kind's first (dark and bright by how much of that
+kind lies around each: a stain's body, a vein's run, before a crumb; colour by its height on
+its kind's own map; none when nothing in view is of that kind), then the other kinds, then
+the excluded ones (by score). The science's own best point is always reported, so a
+striking target of another kind is never hidden, only ranked after. ``any`` leaves the points
+exactly as they were (``bench.aims`` measures all this on mixed scenes).
 """
 
 from __future__ import annotations
@@ -127,10 +132,8 @@ def kind_maps(
     if sky.any():
         ground = np.where(sky >= 0.5, np.uint8(np.median(level[sky < 0.5])), level)
     reach = _SURROUND * math.hypot(rows, cols)
-    tone, lightest, darkest = _ring(ground, reach)
-    if shade is not None:  # a shadow is no rock for a crust to be brighter than
-        lightest = _ring(np.where(shade >= 0.5, np.uint8(255), ground), reach)[1]
-    lighter = tone / lightest - 1.0  # brighter than all around it, by so much
+    unseen = sky >= 0.5
+    tone, lightest, darkest = _ring(ground, reach, unseen)
     deeper = 1.0 - tone / darkest  # darker than all around it
     # A plant's or a lichen's rim (its colour blurred into the rock's) is not a dark or bright
     # feature of its own: the tone kinds keep clear of the coloured ones by a few pixels.
@@ -140,16 +143,27 @@ def kind_maps(
     if shade is not None:
         dark *= 1.0 - shade
     dark = _no_layers(_patches(dark))
+    # A shadow or a stain is no rock for a crust to be brighter than: the bed's piece between
+    # a stain and the frame is no crust.
+    hidden = cv2.dilate((dark >= _RIM_LEVEL).astype(np.uint8), _RIM) > 0
+    if shade is not None:
+        hidden |= shade >= 0.5
+    if hidden.any():
+        lightest = _ring(np.where(hidden, np.uint8(255), ground), reach, unseen)[1]
+    lighter = tone / lightest - 1.0  # brighter than all around it, by so much
     # A crust is brighter than the rock around it on a bed that is not the view's brightest
     # across it: on a white bed that runs across the view, any brighter patch is the bed's.
     light = _ramp(brighter, *_TONE)
     bright = _no_layers(_patches(light * _ramp(lighter, *_LOCAL) * plain), light)
+    vein = np.zeros_like(bright)
     if bars is not None:
-        vein = _veins(bars) * plain
+        vein = _veins(bars, hsi.i) * plain
         if shade is not None:  # a shadow's lit rim is no vein
             vein *= 1.0 - line_shade(bars * bars, shade)
-        dark *= 1.0 - cv2.dilate(vein, _SPECK)
-        bright = cv2.max(bright, vein)
+    # A piece of a thin bed or a ledge's shadow lies along the bedding; a stain does not.
+    bedding = _bedding(hsi.i, cv2.max(cv2.max(dark, bright), vein) >= _RIM_LEVEL)
+    dark = _across(dark, bedding) * (1.0 - cv2.dilate(vein, _SPECK))
+    bright = cv2.max(_across(bright, bedding), vein)
     return {"sky": sky, "vegetation": vegetation, "colour": colour, "dark": dark, "bright": bright}
 
 
@@ -182,20 +196,29 @@ _SKY_STD = (3.0, 6.0)
 """Local standard deviation of I (of 255) below which a surface is as smooth as a sky."""
 
 
-def _ring(level: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _ring(
+    level: np.ndarray, reach: float, unseen: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The level smoothed over a sixth of ``reach`` (float32, + 1), and the second lightest
     and the second darkest of it ``reach`` px away in eight directions: a patch is darker
     (brighter) than all but one of them (a stain may touch a shadow on one side); at a bed's
     edge, along a bed or under the skyline two or more of them are the pixel's own surface,
-    seen through the same smoothing."""
+    seen through the same smoothing. Straight up, down or across, past the frame or in the
+    sky (``unseen``), the rock is not seen: it counts as the pixel's own surface, so a bed's
+    piece cut by the frame or the skyline, whose one side is its own bed, is not a patch (a
+    diagonal there reads the frame's edge, or ``level`` in the sky)."""
     rows, cols = level.shape
     smooth = cv2.GaussianBlur(level.astype(np.float32), (0, 0), reach / 6) + np.float32(1.0)
     e = math.ceil(reach)
     padded = cv2.copyMakeBorder(smooth, e, e, e, e, cv2.BORDER_REPLICATE)
+    seen = cv2.copyMakeBorder((~unseen).astype(np.uint8), e, e, e, e, cv2.BORDER_CONSTANT, 0)
     around = np.empty((8, rows, cols), np.float32)
     for k in range(8):
         dy, dx = round(reach * math.sin(k * math.pi / 4)), round(reach * math.cos(k * math.pi / 4))
         around[k] = padded[e + dy : e + dy + rows, e + dx : e + dx + cols]
+        if k % 2 == 0:  # straight: what is not seen there is the pixel's own surface
+            there = seen[e + dy : e + dy + rows, e + dx : e + dx + cols] > 0
+            around[k] = np.where(there, around[k], smooth)
     around.sort(axis=0)
     return smooth, around[-2], around[1]
 
@@ -230,14 +253,17 @@ def _median_along(values: np.ndarray, width: int) -> np.ndarray:
     return np.median(windows, axis=1).astype(np.float32)
 
 
-def _veins(bars: np.ndarray) -> np.ndarray:
+def _veins(bars: np.ndarray, intensity: np.ndarray) -> np.ndarray:
     """Pixels of thin bright lines (float32, 1 on a vein): connected runs of bar contrast above
     ``_VEIN_Z[0]`` robust standard deviations that reach ``_VEIN_Z[1]`` on a few pixels and
     run ``_VEIN_LENGTH`` of the diagonal; a grain or the grain's noise is no run. On a grainy
     bed both levels rise to ``_VEIN_GRAIN`` (twice that) times the mean bar contrast around
-    the pixel: the bed's own noise is no vein. A vein runs on: a run weighs less the shorter
-    it spans than the longest in view (``_SPAN``), as the grain's curls and a bed's crumbs
-    do beside a vein."""
+    the pixel: the bed's own noise is no vein. A vein crosses the rock it cuts: a run along a
+    contact (a bed's lit rim, a thin bed between two others, the skyline) has a darker rock
+    on one side all along it, and weighs half as much when most of its contrast is that
+    step (``_CONTACT``, on ``intensity``). A vein runs on: a run weighs less the shorter it spans
+    than the longest vein in view (``_SPAN``), as the grain's curls and a bed's crumbs do
+    beside a vein."""
     rows, cols = bars.shape
     size = 2 * round(_SURROUND * math.hypot(rows, cols)) + 1
     grain = cv2.blur(np.abs(bars), (size, size)) * np.float32(_VEIN_GRAIN)
@@ -249,15 +275,18 @@ def _veins(bars: np.ndarray) -> np.ndarray:
     keep[0] = False
     if not keep.any():
         return np.zeros(bars.shape, np.float32)
-    span = np.where(keep, _spans(labels, count), 0.0)
-    weight = _ramp(span / span.max(), *_SPAN)
-    return np.where(keep, weight, 0.0).astype(np.float32)[labels]
+    major, _, axis = _axes(labels, count)
+    along = _ramp(_contacts(intensity, labels, keep, axis), *_CONTACT)
+    crossing = np.where(keep, 1.0 - _CONTACT_WEIGHT * along, 0.0)
+    span = 4 * np.sqrt(major) * crossing  # four standard deviations, along a contact less
+    weight = _ramp(span / span.max(), *_SPAN) * crossing
+    return weight.astype(np.float32)[labels]
 
 
-def _spans(labels: np.ndarray, count: int) -> np.ndarray:
-    """Each labelled run's span along its main axis (four standard deviations of its pixels'
-    spread there, float64): a vein's length, and a curled run of grain short however many
-    pixels it holds."""
+def _axes(labels: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each labelled region's spread along its main axis and across it (variances, px²) and
+    the main axis' angle from the x axis (radians), float64 arrays of ``count``: a vein's
+    span, a curled run of grain short however many pixels it holds, a bed's sliver long."""
     ys, xs = np.nonzero(labels)
     lab = labels[ys, xs]
     n = np.maximum(np.bincount(lab, minlength=count), 1)
@@ -268,8 +297,42 @@ def _spans(labels: np.ndarray, count: int) -> np.ndarray:
     x, y = xs.astype(np.float64), ys.astype(np.float64)
     mx, my = mean(x), mean(y)
     sxx, syy, sxy = mean(x * x) - mx * mx, mean(y * y) - my * my, mean(x * y) - mx * my
-    major = (sxx + syy) / 2 + np.sqrt(((sxx - syy) / 2) ** 2 + sxy * sxy)
-    return 4 * np.sqrt(np.maximum(major, 0.0))
+    half = np.sqrt(((sxx - syy) / 2) ** 2 + sxy * sxy)
+    major = np.maximum((sxx + syy) / 2 + half, 0.0)
+    minor = np.maximum((sxx + syy) / 2 - half, 0.0)
+    return major, minor, 0.5 * np.arctan2(2 * sxy, sxx - syy)
+
+
+def _contacts(
+    intensity: np.ndarray, labels: np.ndarray, keep: np.ndarray, axis: np.ndarray
+) -> np.ndarray:
+    """Per kept run, the share of its contrast that is a step across it (float64, 0 on a
+    vein inside one bed, towards 1 on a line along a contact): the rock ``_SIDE`` px to
+    either side of each pixel (across the ridge there, the Hessian's steepest downward
+    curvature, turned to the run's own side), the median difference of the two sides over
+    the run against that of the run above its brighter side."""
+    rows, cols = intensity.shape
+    g = cv2.GaussianBlur(intensity.astype(np.float32), (0, 0), _SIDE_BLUR)
+    ixx = cv2.Sobel(g, cv2.CV_32F, 2, 0, ksize=3)
+    iyy = cv2.Sobel(g, cv2.CV_32F, 0, 2, ksize=3)
+    ixy = cv2.Sobel(g, cv2.CV_32F, 1, 1, ksize=3)
+    across = 0.5 * cv2.phase(ixx - iyy, 2 * ixy) + np.float32(math.pi / 2)
+    nx, ny = np.cos(across), np.sin(across)
+    yy, xx = np.mgrid[0:rows, 0:cols].astype(np.float32)
+    left = cv2.remap(
+        g, xx + _SIDE * nx, yy + _SIDE * ny, cv2.INTER_LINEAR, None, cv2.BORDER_REPLICATE
+    )
+    right = cv2.remap(
+        g, xx - _SIDE * nx, yy - _SIDE * ny, cv2.INTER_LINEAR, None, cv2.BORDER_REPLICATE
+    )
+    bar = cv2.max(g - cv2.max(left, right), 0.0)
+    share = np.zeros(len(keep))
+    for k in np.flatnonzero(keep):
+        on = labels == k
+        side = np.sign(nx[on] * -math.sin(axis[k]) + ny[on] * math.cos(axis[k]) + 1e-9)
+        step = abs(float(np.median((left[on] - right[on]) * side)))
+        share[k] = step / (step + float(np.median(bar[on])) + 1e-3)
+    return share
 
 
 _VEIN_Z = (2.5, 5.0)
@@ -285,6 +348,16 @@ _VEIN_LENGTH = 0.033
 _SPAN = (0.4, 0.7)
 """A run weighs less below this share of the longest run's span in view (0 at the lower):
 the grain of a bed curls into short runs, a vein runs on."""
+_CONTACT = (0.3, 0.5)
+"""A run lies along a contact from this share of its contrast being a step across it (wholly
+at the upper): a vein inside one bed has under 0.25 (its grain), a line along a contact more."""
+_CONTACT_WEIGHT = 0.5
+"""How much less a run along a contact weighs: still bright (a vein may follow a bedding
+plane), but after a vein that crosses the beds, and half as long beside it."""
+_SIDE = 4.0
+"""How far (px) to either side of a run the rock it crosses is read: past a 3 px vein's rim."""
+_SIDE_BLUR = 1.5
+"""Gaussian sigma (px) the sides and the ridge's direction are read after."""
 
 
 def _patches(like: np.ndarray) -> np.ndarray:
@@ -327,6 +400,61 @@ def _no_layers(like: np.ndarray, region: np.ndarray | None = None) -> np.ndarray
         return like
     layer = cv2.dilate(wide[labels].astype(np.uint8), _SPECK)
     return np.where(layer > 0, 0.0, like).astype(np.float32)
+
+
+def _bedding(intensity: np.ndarray, aside: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The bedding's structure tensor (Jxx, Jyy, Jxy of the intensity's gradient, float32),
+    averaged over ``_SURROUND`` of the diagonal without the pixels ``aside`` (the tone
+    kinds' patches, widened by their rim): a patch's own outline says nothing of the beds
+    it lies on, the contacts around it do."""
+    rows, cols = intensity.shape
+    g = cv2.GaussianBlur(intensity.astype(np.float32), (0, 0), _BED_BLUR)
+    gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3)
+    gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3)
+    weight = 1.0 - cv2.dilate(aside.astype(np.uint8), _RIM).astype(np.float32)
+    sigma = _SURROUND * math.hypot(rows, cols)
+
+    def average(m: np.ndarray) -> np.ndarray:
+        return cv2.GaussianBlur(m * weight, (0, 0), sigma)
+
+    norm = cv2.max(average(np.ones_like(weight)), 1e-3)
+    return tuple(average(m) / norm for m in (gx * gx, gy * gy, gx * gy))
+
+
+def _across(like: np.ndarray, bedding: tuple[np.ndarray, ...]) -> np.ndarray:
+    """``like`` without its patches that lie along the bedding: a region (where ``like`` is
+    at least ``_RIM_LEVEL``) ``_ELONGATED`` times longer than wide whose long axis is within
+    ``_ALONG`` of the beds' direction around it (the bedding's structure tensor, where it is
+    ``_COHERENT``) is a piece of a thin bed or a ledge's shadow; a stain, a crust or a lens
+    seen across the beds is not, and keeps its likelihood."""
+    count, labels = cv2.connectedComponents((like >= _RIM_LEVEL).astype(np.uint8), None, 8)
+    if count < 2:
+        return like
+    major, minor, axis = _axes(labels, count)
+    n = np.maximum(np.bincount(labels.ravel(), minlength=count), 1)
+    jxx, jyy, jxy = (np.bincount(labels.ravel(), m.ravel(), count) / n for m in bedding)
+    coherent = np.hypot(jxx - jyy, 2 * jxy) / np.maximum(jxx + jyy, 1e-6)
+    beds = 0.5 * np.arctan2(2 * jxy, jxx - jyy) + math.pi / 2  # across the steepest gradient
+    aligned = np.abs(np.cos(axis - beds))
+    along = (
+        _ramp(np.sqrt(major / np.maximum(minor, 0.25)), *_ELONGATED)
+        * _ramp(aligned, math.cos(math.radians(_ALONG[1])), math.cos(math.radians(_ALONG[0])))
+        * _ramp(coherent, *_COHERENT)
+    )
+    along[0] = 0.0
+    return (like * (1.0 - along[labels])).astype(np.float32)
+
+
+_BED_BLUR = 2.0
+"""Gaussian sigma (px) of the intensity the bedding's gradient is read on: a 3 px vein is
+faint at it, a contact is not."""
+_ELONGATED = (2.5, 4.0)
+"""Length over width (standard deviations) from which a patch is a sliver (1 at the upper): a
+stain is under 2, cut by a contact about 2."""
+_ALONG = (15.0, 25.0)
+"""Degrees between a sliver's axis and the beds within which it lies along them (1 below)."""
+_COHERENT = (0.3, 0.5)
+"""Coherence of the bedding's tensor from which there are beds to lie along (1 above)."""
 
 
 _JOIN = 0.008
@@ -432,19 +560,27 @@ def aim_points(
     for kind in excluded:
         keep *= 1.0 - maps[kind]
     sought: list[InterestPoint] = []
-    evidence: list[float] = []  # each sought point's height on its kind's own map
+    evidence: list[float] = []  # each sought point's own evidence, the aim's ranking
     if aim.kind != "any" and (maps[aim.kind] >= 0.5).any():  # none of that kind in view
-        sought = find_points(remap(maps[aim.kind] * keep), params)
-        evidence = [p.score / sought[0].score for p in sought]
+        wanted = maps[aim.kind] * keep
+        sought = find_points(remap(wanted), params)
+        evidence = [p.score / sought[0].score for p in sought]  # its height there
+        if aim.kind in _BY_MASS:
+            rows, cols = wanted.shape
+            mass = cv2.GaussianBlur(wanted, (0, 0), _MASS * math.hypot(rows, cols))
+            evidence = [
+                float(mass[min(rows - 1, max(0, round(p.y))), min(cols - 1, max(0, round(p.x)))])
+                for p in sought
+            ]
         sought = _rescored(imap, sought)
     found, kinds = sought, point_kinds(sought, maps, prefer=aim.kind)
     if excluded:
         rest = _rescored(imap, find_points(remap(keep), params))
         found, kinds = found + rest, kinds + point_kinds(rest, maps)
     found, kinds = found + science, kinds + point_kinds(science, maps)
-    # Targets first; then the sought kind, found on its own evidence (by its height there,
-    # relative to that map's best: the aim's own ranking) before any other point of that
-    # kind; then the other kinds and the kinds set aside, by score.
+    # Targets first; then the sought kind, found on its own evidence (by that evidence: the
+    # aim's own ranking) before any other point of that kind; then the other kinds and the
+    # kinds set aside, by score.
     marked = mark_background(imap, found)
     key = [
         (
@@ -465,6 +601,14 @@ def aim_points(
         chosen[min(len(chosen), params.top_n - 1) :] = [best]
     points = [dataclasses.replace(marked[k], rank=rank) for rank, k in enumerate(chosen, start=1)]
     return points, [kinds[k] for k in chosen]
+
+
+_BY_MASS = frozenset({"dark", "bright"})
+"""Kinds whose points rank by how much of the kind lies around them (a stain's body, a vein's
+run before a bed's crumb); a colour ranks by its height on its own evidence (a lichen is
+small, and a blue sky's rim large)."""
+_MASS = 0.02
+"""Gaussian sigma (share of the diagonal, 7 px at 216x288) over which that is summed."""
 
 
 def _rescored(imap: InterestMap, points: list[InterestPoint]) -> list[InterestPoint]:

@@ -19,6 +19,7 @@ Pixels are labelled with these classes by ``segment.segment_plane``.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import cv2
@@ -28,12 +29,18 @@ from .kernels import kernel
 from .params import VisionParams
 
 __all__ = [
+    "BAND_PIXELS",
     "PlaneClass",
     "Segmentation",
     "cooccurrence_histogram",
     "diagonal_classes",
     "find_classes",
 ]
+
+BAND_PIXELS = 1 << 16
+"""Pixels per band of rows where a whole-image computation that is per pixel (or reads a
+pixel's neighbours) is done a band at a time, so its temporaries are a band's, not the
+image's."""
 
 
 @dataclass(frozen=True)
@@ -84,6 +91,13 @@ class Segmentation:
     @property
     def k(self) -> int:
         return len(self.classes)
+
+    def window(self, box: tuple[slice, slice]) -> Segmentation:
+        """The same classes over a window of the image (its ``labels`` and ``values`` there):
+        what each pixel's label alone decides, as its uncommon value, is the same as on the
+        whole image."""
+        values = None if self.values is None else self.values[box]
+        return dataclasses.replace(self, labels=self.labels[box], values=values)
 
     def original_value(self, coded: int) -> int:
         """Map a value in segmented coding back to the plane's own coding."""

@@ -17,6 +17,7 @@ import numpy as np
 from .cooccurrence import Segmentation
 from .hsi import HSIPlanes
 from .interest import InterestMap, InterestPoint
+from .kernels import kernel
 from .params import VisionParams
 from .uncommon import uncommon_map
 
@@ -87,19 +88,34 @@ _SAMPLE = 1 << 18
 """Pixels enough to describe a whole image's colour and tones."""
 
 
-def _median(values: np.ndarray) -> float:
-    counts = np.bincount(values.ravel(), minlength=256)
-    return float(np.searchsorted(np.cumsum(counts), (values.size + 1) / 2))
+def _middle(counts: np.ndarray) -> float:
+    """The median code of the values these 256 counts are of (the upper middle one)."""
+    return float(np.searchsorted(np.cumsum(counts), (int(counts.sum()) + 1) / 2))
 
 
-def _typical(h: np.ndarray, s: np.ndarray, i: np.ndarray) -> str:
+@kernel
+def _histograms(h: np.ndarray, s: np.ndarray, i: np.ndarray) -> tuple:
+    """In one pass over the pixels, in order: each hue code's summed saturation (+ 1e-9 a
+    pixel; float64, ``np.bincount``'s sums bit for bit) and the counts of the S and of the I
+    codes (256 each)."""
+    weight = np.zeros(256)
+    count_s = np.zeros(256, np.int64)
+    count_i = np.zeros(256, np.int64)
+    for k in range(len(h)):
+        weight[h[k]] += np.float64(s[k]) + 1e-9
+        count_s[s[k]] += 1
+        count_i[i[k]] += 1
+    return weight, count_s, count_i
+
+
+def _typical(h: np.ndarray, s: np.ndarray, i: np.ndarray) -> tuple[str, np.ndarray]:
     """The colour word of a region's pixels: saturation-weighted mean hue, median S and I
-    (by histograms: cheap on a whole photograph)."""
+    (by histograms: cheap on a whole photograph); and the counts of its I codes."""
     if h.size == 0:
-        return "grey"
-    weight = np.bincount(h.ravel(), weights=s.ravel().astype(np.float64) + 1e-9, minlength=256)
+        return "grey", np.zeros(256, np.int64)
+    weight, count_s, count_i = _histograms(h.ravel(), s.ravel(), i.ravel())
     mean = math.atan2(float(weight @ np.sin(_ANGLES)), float(weight @ np.cos(_ANGLES)))
-    return colour_name(math.degrees(mean) % 360, _median(s), _median(i))
+    return colour_name(math.degrees(mean) % 360, _middle(count_s), _middle(count_i)), count_i
 
 
 _CORE = 0.5
@@ -133,8 +149,8 @@ def plain_lines(points: list[InterestPoint], hsi: HSIPlanes) -> list[str]:
     rows, cols = hsi.i.shape
     step = max(1, math.isqrt(rows * cols // _SAMPLE))  # the whole image's colour and tones
     h, sat, i = (plane[::step, ::step] for plane in hsi.planes)  # from a lattice of pixels
-    whole = _typical(h, sat, i)
-    below = np.concatenate([[0], np.cumsum(np.bincount(i.ravel(), minlength=256))])
+    whole, tones = _typical(h, sat, i)
+    below = np.concatenate([[0], np.cumsum(tones)])
     lines = []
     for point in points:
         radius = max(point.radius, 1.0)
@@ -149,8 +165,8 @@ def plain_lines(points: list[InterestPoint], hsi: HSIPlanes) -> list[str]:
         # size, and a red spot's disc on orange rock would read orange from afar, red close.
         core = dist2 <= max(_CORE * radius, 1.5) ** 2
         h, sat, i = (plane[r0:r1, c0:c1][core if core.any() else inside] for plane in hsi.planes)
-        here = _typical(h, sat, i)
-        level = _median(i)
+        here, tones = _typical(h, sat, i)
+        level = _middle(tones)
         darker = 1.0 - below[int(level) + 1] / below[-1]  # share strictly brighter
         brighter = below[int(level)] / below[-1]  # share strictly darker
         area = 100.0 * inside.sum() / (rows * cols)  # what the patch covers of this view
@@ -212,7 +228,7 @@ def explain_points(
     if maps is None:
         maps = [uncommon_map(seg, params) for seg in segs]
     step = max(1, math.isqrt(rows * cols // _SAMPLE))
-    ranked = np.sort(texture[::step, ::step], axis=None) if texture is not None else None
+    sample = None if texture is None else texture[::step, ::step]
     out = []
     for point in points:
         box, kernel = _gaussian_window(point, sigma, (rows, cols))
@@ -241,7 +257,7 @@ def explain_points(
                 )
             planes.append(entry)
         if texture is not None and params.texture_weight > 0:
-            planes.append(_texture_entry(texture, point, sigma * params.texture_blur, ranked))
+            planes.append(_texture_entry(texture, point, sigma * params.texture_blur, sample))
         if shade is not None:
             likelihood = float((shade[box] * kernel).sum())
             planes.append({"plane": "shade", "likelihood": round(likelihood, 3)})
@@ -290,13 +306,15 @@ def _gaussian_window(
 
 
 def _texture_entry(
-    texture: np.ndarray, point: InterestPoint, sigma: float, ranked: np.ndarray
+    texture: np.ndarray, point: InterestPoint, sigma: float, sample: np.ndarray
 ) -> dict:
     """The texture rarity around ``point`` (Gaussian-weighted, sigma) and its rank among
-    the image's pixels (``ranked``: a sorted sample of the rarity)."""
+    the image's pixels (``sample``: the rarity on a lattice of them), counted: a few points
+    need a few passes, where sorting the sample took more than them all."""
     box, kernel = _gaussian_window(point, sigma, texture.shape)
     rarity = float((texture[box] * kernel).sum())
-    commoner = float(np.searchsorted(ranked, rarity)) / max(len(ranked), 1)
+    # Compared in float64, as a search in the sorted sample compares them.
+    commoner = np.count_nonzero(sample < np.float64(rarity)) / max(sample.size, 1)
     return {"plane": "texture", "rarity": round(rarity, 3), "rarer_than": round(commoner, 4)}
 
 

@@ -24,6 +24,8 @@ from typing import NamedTuple
 import cv2
 import numpy as np
 
+from .cooccurrence import BAND_PIXELS
+
 __all__ = ["HSIPlanes", "hue_histogram_rotation", "rgb_to_hsi"]
 
 
@@ -43,17 +45,27 @@ _HUE_LUT = _hexcone_to_geometric_lut()
 
 
 class HSIPlanes(NamedTuple):
-    """The three 8-bit planes of an image, each of shape (M, N), plus where hue is defined."""
+    """The three 8-bit planes of an image, each of shape (M, N), and the thresholds that say
+    where hue is defined."""
 
     h: np.ndarray
     s: np.ndarray
     i: np.ndarray
-    hue_defined: np.ndarray
-    """bool (M, N): False where S is below the grey threshold (hue is noise there)."""
+    grey_saturation: int = 5
+    min_intensity: int = 0
 
     @property
     def planes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return (self.h, self.s, self.i)
+
+    @property
+    def hue_defined(self) -> np.ndarray:
+        """bool (M, N), made anew on each call (not held beside the planes): False where S
+        is below ``grey_saturation`` or I below ``min_intensity`` (hue is noise there)."""
+        defined = self.s >= self.grey_saturation
+        if self.min_intensity > 0:
+            defined &= self.i >= self.min_intensity
+        return defined
 
 
 def rgb_to_hsi(bgr: np.ndarray, grey_saturation: int = 5, min_intensity: int = 0) -> HSIPlanes:
@@ -71,7 +83,8 @@ def rgb_to_hsi(bgr: np.ndarray, grey_saturation: int = 5, min_intensity: int = 0
     Returns
     -------
     HSIPlanes
-        ``h``, ``s``, ``i`` as new (M, N) uint8 arrays and the bool ``hue_defined`` mask.
+        ``h``, ``s``, ``i`` as new (M, N) uint8 arrays, and the bool ``hue_defined`` mask
+        made from them on demand.
 
     Examples
     --------
@@ -86,21 +99,30 @@ def rgb_to_hsi(bgr: np.ndarray, grey_saturation: int = 5, min_intensity: int = 0
         raise ValueError(f"expected an (M, N, 3) image, got shape {bgr.shape}")
     if bgr.dtype != np.uint8:
         raise ValueError(f"expected uint8, got {bgr.dtype}")
+    rows, cols = bgr.shape[:2]
+    h, s, i = (np.empty((rows, cols), np.uint8) for _ in range(3))
+    # Every step is per pixel, so a band of rows at a time gives the whole image's planes with
+    # a band's temporaries (13 bytes per pixel at once), not the image's.
+    step = max(1, BAND_PIXELS // max(cols, 1))
+    for r0 in range(0, rows, step):
+        band = np.s_[r0 : r0 + step]
+        _band_to_hsi(bgr[band], h[band], s[band], i[band])
+    return HSIPlanes(h, s, i, grey_saturation, min_intensity)
+
+
+def _band_to_hsi(bgr: np.ndarray, h: np.ndarray, s: np.ndarray, i: np.ndarray) -> None:
+    """Write the H, S, I of a band of rows into ``h``, ``s``, ``i`` (views of the planes)."""
     hexcone = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV_FULL)
-    h = cv2.LUT(cv2.extractChannel(hexcone, 0), _HUE_LUT)
+    h[:] = cv2.LUT(cv2.extractChannel(hexcone, 0), _HUE_LUT)
     b, g, r = cv2.split(bgr)
     total = b.astype(np.uint16)
     total += g
     total += r
-    i = cv2.convertScaleAbs(total, alpha=1.0 / 3.0)
+    i[:] = cv2.convertScaleAbs(total, alpha=1.0 / 3.0)
     lowest = cv2.min(cv2.min(b, g), r).astype(np.uint16)
     # S = 255 (sum - 3 min) / sum; OpenCV's x / 0 = 0 gives black S = 0 for free.
     excess = total - 3 * lowest
-    s = cv2.divide(excess, total, scale=255.0).astype(np.uint8)
-    defined = s >= grey_saturation
-    if min_intensity > 0:
-        defined &= i >= min_intensity
-    return HSIPlanes(h, s, i, defined)
+    s[:] = cv2.divide(excess, total, scale=255.0)
 
 
 def hue_histogram_rotation(hue: np.ndarray, mask: np.ndarray | None = None) -> int:

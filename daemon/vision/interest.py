@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .cooccurrence import Segmentation
+from .cooccurrence import BAND_PIXELS, Segmentation
 from .grid import block_means, expand, grid_blur
 from .kernels import kernel
 from .order import median, percentiles
@@ -102,6 +102,28 @@ def summed_uncommon(
     return total
 
 
+def _summed_means(
+    segs: tuple[Segmentation, ...], params: VisionParams, step: int, f: int
+) -> tuple[np.float32, np.ndarray]:
+    """The median of :func:`summed_uncommon` on the lattice of every ``step``-th pixel and its
+    f x f block means, value for value, from bands of rows (each pixel's sum is its own
+    labels'; a band starts on the lattice and on a block, and the last keeps the rows the
+    frame's reflected padding reads)."""
+    rows, cols = segs[0].labels.shape
+    unit = math.lcm(step, f)
+    height = unit * max(1, BAND_PIXELS // (unit * max(cols, 1)))
+    means = np.empty((-(-rows // f), -(-cols // f)), np.float32)
+    lattice = []
+    r0 = 0
+    while r0 < rows:
+        r1 = rows if rows - r0 < height + f else r0 + height
+        band = summed_uncommon(tuple(seg.window(np.s_[r0:r1, :]) for seg in segs), params)
+        lattice.append(band[::step, ::step].copy())  # not a view: the band goes
+        means[r0 // f : -(-r1 // f)] = block_means(band, f)
+        r0 = r1
+    return np.float32(median(np.concatenate(lattice))), means
+
+
 def interest_map(
     segs: tuple[Segmentation, ...],
     params: VisionParams,
@@ -122,7 +144,8 @@ def interest_map(
         the uncommon fields.
 
     total : (M, N) float32 ndarray, optional
-        :func:`summed_uncommon` of ``segs``, when the caller already has it.
+        :func:`summed_uncommon` of ``segs``, when the caller already has it; else it is
+        summed a band of rows at a time and never held whole.
     texture : (M, N) float32 ndarray, optional
         ``texture.texture_rarity`` of the image, fused in with ``texture_weight`` (:func:`fuse`).
     prior : (M, N) float32 ndarray, optional
@@ -152,16 +175,17 @@ def interest_map(
     >>> bool(imap.full()[30, 30] > imap.full()[5, 5])
     True
     """
-    if total is None:
-        total = summed_uncommon(segs, params)
-    rows, cols = total.shape
+    rows, cols = segs[0].labels.shape if total is None else total.shape
     # Heights count from the typical level (the median, on a lattice of <= 2^18 pixels), and
     # outside the frame counts as typical rock.
     step = max(1, math.isqrt(rows * cols >> 18))
-    typical = np.float32(median(total[::step, ::step]))
     sigma = params.sigma((rows, cols))
     f = _factor(sigma, (rows, cols), params.exact_blur)
-    base = block_means(total, f) - typical
+    if total is None:  # summed a band at a time: the full-size float sum is never made
+        typical, means = _summed_means(segs, params, step, f)
+    else:
+        typical, means = np.float32(median(total[::step, ::step])), block_means(total, f)
+    base = means - typical
     blurred = _blur(base, sigma, f)
     uncommon = blurred
     grid = plain = blurred

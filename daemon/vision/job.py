@@ -18,6 +18,7 @@ import numpy as np
 from ..pointing.geometry import pixel_centre, pixel_index
 from . import render
 from .contract import AnalysisJob, AnalysisResult, ResultPoint
+from .exact import exact
 from .explain import PLANE_NAMES, describe
 from .grid import reduce_to
 from .imageio import as_bgr8, fsync_path, write_atomic, write_jpeg, write_png
@@ -49,6 +50,7 @@ def working_reduction(shape: tuple[int, ...], params: VisionParams) -> float:
     return math.sqrt(pixels / params.max_pixels)
 
 
+@exact
 def analyze_image(
     image: np.ndarray,
     params: VisionParams,

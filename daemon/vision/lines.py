@@ -28,6 +28,8 @@ import math
 import cv2
 import numpy as np
 
+from .exact import exact
+from .kernels import kernel
 from .order import median
 from .params import VisionParams
 
@@ -38,6 +40,11 @@ _ORIENTATIONS = 8
 lying between two of them by at most 0.8 px at its ends."""
 _FLOOR = 0.1
 """Intensities (0..1) are taken as log(I + 0.1), as the texture term's brightness is."""
+_LOGS = exact(cv2.log)(
+    np.arange(256, dtype=np.float32) * np.float32(1.0 / 255.0) + np.float32(_FLOOR)
+).reshape(1, 256)
+"""log(I + ``_FLOOR``) of each 8-bit grey value, float32: looked up, one pass where the
+conversion, the scaling, the sum and the logarithm were four, with the same values."""
 _SAMPLE = 1 << 14
 """Most pixels (on a regular lattice) the robust scale is estimated on: a median needs few."""
 _MAD_FLOOR = 1e-4
@@ -108,12 +115,38 @@ def bar_contrast(plane: np.ndarray, width: float, half_length: float) -> np.ndar
         theta = math.pi * i / _ORIENTATIONS
         mean = cv2.filter2D(padded, -1, _segment_kernel(i, half_length))
         dy, dx = round(side * math.cos(theta)), round(-side * math.sin(theta))
-        centre = mean[e : e + rows, e : e + cols]
-        one = mean[e - dy : e - dy + rows, e - dx : e - dx + cols]
-        other = mean[e + dy : e + dy + rows, e + dx : e + dx + cols]
-        cv2.max(bright, cv2.subtract(centre, cv2.max(one, other)), dst=bright)
-        cv2.max(dark, cv2.subtract(cv2.min(one, other), centre), dst=dark)
-    return np.where(bright >= dark, bright, -dark)
+        _strongest_bar(mean, e, (dy, dx), bright, dark)
+    return _signed(bright, dark)
+
+
+@kernel
+def _strongest_bar(
+    mean: np.ndarray, e: int, side: tuple[int, int], bright: np.ndarray, dark: np.ndarray
+) -> None:
+    """``bright`` and ``dark`` raised, in place, to one orientation's bar contrast: its
+    segment means ``mean`` (padded by ``e``) at each pixel against those ``side`` (dy, dx) to
+    either side; float32, operation for operation as the whole-array expression."""
+    (dy, dx), (rows, cols) = side, bright.shape
+    for y in range(rows):  # row slices: a loop over them is vectorised, 2-D indexing is not
+        centre = mean[y + e, e : e + cols]
+        one = mean[y + e - dy, e - dx : e - dx + cols]
+        other = mean[y + e + dy, e + dx : e + dx + cols]
+        up, down = bright[y], dark[y]
+        for x in range(cols):  # as cv2.max and cv2.min: no NaN here, ties the same value
+            a, b = one[x], other[x]
+            rise, fall = centre[x] - (a if a >= b else b), (b if a >= b else a) - centre[x]
+            up[x] = rise if rise > up[x] else up[x]
+            down[x] = fall if fall > down[x] else down[x]
+
+
+@kernel
+def _signed(bright: np.ndarray, dark: np.ndarray) -> np.ndarray:
+    """``bright`` where it is at least ``dark``, else ``-dark``."""
+    out = np.empty_like(bright)
+    for y in range(bright.shape[0]):
+        for x in range(bright.shape[1]):
+            out[y, x] = bright[y, x] if bright[y, x] >= dark[y, x] else -dark[y, x]
+    return out
 
 
 def line_rarity(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
@@ -131,18 +164,24 @@ def line_rarity(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
     >>> bool(z[40, 20] > 20), bool(abs(z[40, 40]) < 5)
     (True, True)
     """
-    grey = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY).astype(np.float32)
-    plane = cv2.log(grey * np.float32(1.0 / 255.0) + np.float32(_FLOOR))
+    plane = cv2.LUT(cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY), _LOGS)
     bar = bar_contrast(plane, params.line_width, params.line_length)
     step = max(1, math.isqrt(bar.size // _SAMPLE))
     sample = np.abs(bar[::step, ::step])
     centre = float(median(sample))
     scale = max(1.4826 * float(median(np.abs(sample - centre))), _MAD_FLOOR)
-    strength = np.abs(bar)
-    np.subtract(strength, np.float32(centre), out=strength)
-    np.maximum(strength, np.float32(0.0), out=strength)
-    np.multiply(strength, np.float32(1.0 / scale), out=strength)
-    return np.copysign(strength, bar, out=strength)
+    return _in_scale(bar, np.float32(centre), np.float32(1.0 / scale))
+
+
+@kernel
+def _in_scale(bar: np.ndarray, centre: np.float32, inverse: np.float32) -> np.ndarray:
+    """max(|bar| - centre, 0) x inverse with the sign of ``bar``, float32."""
+    out = np.empty_like(bar)
+    zero = np.float32(0.0)
+    for y in range(bar.shape[0]):
+        for x in range(bar.shape[1]):
+            out[y, x] = math.copysign(max(abs(bar[y, x]) - centre, zero) * inverse, bar[y, x])
+    return out
 
 
 def line_shade(rarity: np.ndarray, shade: np.ndarray) -> np.ndarray:

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from functools import partial
+from functools import cached_property, partial
 
 import cv2
 import numpy as np
 
 from .aims import aim_entry, aim_points, aimed_map, kind_maps
-from .cooccurrence import Segmentation
+from .cooccurrence import BAND_PIXELS, Segmentation
+from .exact import exact
 from .explain import PLANE_NAMES, clauses, explain_points, plain_lines
 from .hsi import HSIPlanes, hue_histogram_rotation, rgb_to_hsi
 from .interest import InterestMap, InterestPoint, interest_map, summed_uncommon
@@ -21,7 +22,7 @@ from .params import VisionParams
 from .segment import segment_plane
 from .shadow import shadow_likelihood
 from .texture import texture_rarity
-from .uncommon import uncommon_map
+from .uncommon import UncommonWindows, uncommon_map
 
 __all__ = ["NO_TARGET", "Analysis", "analyze"]
 
@@ -34,7 +35,6 @@ NO_TARGET = "no further target: indistinguishable from the view's background"
 class Analysis:
     """Everything the pipeline computed for one image (analysed-image pixel coordinates)."""
 
-    hsi: HSIPlanes
     segmentations: tuple[Segmentation, Segmentation, Segmentation]
     interest: InterestMap
     points: list[InterestPoint]
@@ -47,8 +47,19 @@ class Analysis:
     notes: tuple[str, ...] = ()
     """What the analysis could not do and why, in plain language (``_notes``): a plane of one
     class, a no-data fill left out."""
+    image: np.ndarray | None = field(default=None, repr=False)
+    """The image as given to :func:`analyze`, which :attr:`hsi` is made from again."""
+    planes: HSIPlanes | None = field(default=None, repr=False)
+    """The H, S, I planes when the analysis kept them (an image up to ``_KEEP_PLANES``)."""
+
+    @cached_property
+    def hsi(self) -> HSIPlanes:
+        """The analysed image's H, S, I planes: those kept, else made again (on a big image
+        they are not held through the analysis, for products that may never be asked for)."""
+        return _planes(self.planes, self.image, self.params)
 
 
+@exact
 def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = None) -> Analysis:
     """Find the most uncommon regions of a colour image.
 
@@ -83,40 +94,37 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
         raise ValueError(f"expected (M, N, 3) uint8, got {bgr.shape} {bgr.dtype}")
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
-    void = no_data_mask(bgr)
-    if void is not None:  # a mosaic's or a panorama's black fill is not image (``nodata``)
-        bgr = fill(bgr, void)
+    source = bgr
+    bgr, void, hsi = _prepare(bgr, params)
     valid = None if void is None else ~void
-    # Sensor noise is smoothed out of what is segmented only: texture and shade are judged
-    # on the image as it came (fine local contrast is what texture rarity measures).
-    smooth = cv2.GaussianBlur(bgr, (0, 0), params.presmooth) if params.presmooth > 0 else bgr
-    hsi = rgb_to_hsi(smooth, params.grey_saturation, params.hue_min_intensity)
     t1 = time.perf_counter()
     timings["hsi"] = (t1 - t0) * 1e3
-    defined = hsi.hue_defined if valid is None else hsi.hue_defined & valid
-    hue, hue_mask = hsi.h, valid
-    if params.hue_grey == "unsegmented":
-        hue_mask = defined
-    offset = hue_histogram_rotation(hsi.h, defined) if params.hue_rotate else 0
-    if params.hue_grey != "unsegmented":
-        # Grey pixels go to code 0 after rotation by ``offset`` ("zero" rotates by 0; "class"
-        # by the emptiest hue, so grey is a class of its own). uint8 arithmetic wraps modulo
-        # 256, which is the rotation.
-        rotation = np.uint8(offset)
-        defined = hsi.hue_defined.view(np.uint8) * np.uint8(255)
-        hue = cv2.bitwise_and(hsi.h + rotation, defined) - rotation
     segs = (
-        segment_plane(hue, params, mask=hue_mask, offset=offset),
+        _segment_hue(hsi, valid, params),
         segment_plane(hsi.s, params, mask=valid),
         segment_plane(hsi.i, params, mask=valid),
     )
     t2 = time.perf_counter()
     timings["segment"] = (t2 - t1) * 1e3
-    maps = [uncommon_map(seg, params) for seg in segs]
+    # A big image's planes are let go here and made again where they are read: held, they
+    # would sit under every later stage's arrays (4 bytes per pixel).
+    kept = hsi if hsi.i.size <= _KEEP_PLANES else None
+    del hsi
     shares = [layer_share(seg) for seg in segs] if params.layers > 0 else None
-    if shares is not None:
-        maps = [discount_uncommon(m, s, params.layers) for m, s in zip(maps, shares, strict=True)]
-    total = summed_uncommon(segs, params, maps)
+    if shares is None:  # each map is made where it is read: no full-size float map is kept
+        maps: list[np.ndarray] | list[UncommonWindows] = [
+            UncommonWindows(seg, params) for seg in segs
+        ]
+        # The whole sum is made for what reshapes it (the shadow gate, a no-data fill, an
+        # aim); otherwise the interest map sums a band at a time.
+        reshaped = params.shadow_gate > 0 or void is not None or params.aim != "any"
+        total = _summed(segs, params) if reshaped else None
+    else:
+        maps = [
+            discount_uncommon(uncommon_map(seg, params), s, params.layers)
+            for seg, s in zip(segs, shares, strict=True)
+        ]
+        total = summed_uncommon(segs, params, maps)
     rarity = texture = texture_rarity(bgr, params) if params.texture_weight > 0 else None
     if rarity is not None and shares is not None:
         rarity = texture = discount_texture(rarity, shares, params.layers)
@@ -141,7 +149,8 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
         prior = _fit_prior(prior, bgr.shape[:2])
     imap = interest_map(segs, params, total, texture, prior=prior, line=lines)
     # An aim (``aims``) orders the points by kind; ``any`` leaves them as found.
-    likeness = None if params.aim == "any" else kind_maps(bgr, hsi, shade, bars)
+    planes = partial(_planes, kept, source, params)
+    likeness = None if params.aim == "any" else kind_maps(bgr, planes(), shade, bars)
     remap = partial(aimed_map, segs, params, total, texture, prior=prior, line=lines)
     points, kinds = aim_points(imap, params, likeness, remap)
     t3 = time.perf_counter()
@@ -161,12 +170,14 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
         expl.append(aim_entry(params.aim, kind))
     descriptions = [
         line + clauses(expl) if p.target else NO_TARGET
-        for p, line, expl in zip(points, plain_lines(points, hsi), explanations, strict=True)
+        for p, line, expl in zip(points, plain_lines(points, planes()), explanations, strict=True)
     ]
     timings["explain"] = (time.perf_counter() - t3) * 1e3
     timings["total"] = (time.perf_counter() - t0) * 1e3
     notes = _notes(segs, params, void)
-    return Analysis(hsi, segs, imap, points, explanations, descriptions, params, timings, notes)
+    return Analysis(
+        segs, imap, points, explanations, descriptions, params, timings, notes, source, kept
+    )
 
 
 def _notes(
@@ -198,6 +209,62 @@ def _notes(
             "image's edge) left out: never segmented or scored"
         )
     return tuple(notes)
+
+
+_KEEP_PLANES = 1 << 22
+"""Pixels up to which the analysis keeps the H, S, I planes (at most 16 MB) rather than
+making them twice."""
+
+
+def _prepare(
+    bgr: np.ndarray, params: VisionParams
+) -> tuple[np.ndarray, np.ndarray | None, HSIPlanes]:
+    """(the image with any no-data fill made neutral, the fill's mask or None, the H, S, I
+    planes of what is segmented)."""
+    void = no_data_mask(bgr)
+    if void is not None:  # a mosaic's or a panorama's black fill is not image (``nodata``)
+        bgr = fill(bgr, void)
+    # Sensor noise is smoothed out of what is segmented only: texture and shade are judged
+    # on the image as it came (fine local contrast is what texture rarity measures).
+    smooth = cv2.GaussianBlur(bgr, (0, 0), params.presmooth) if params.presmooth > 0 else bgr
+    return bgr, void, rgb_to_hsi(smooth, params.grey_saturation, params.hue_min_intensity)
+
+
+def _segment_hue(hsi: HSIPlanes, valid: np.ndarray | None, params: VisionParams) -> Segmentation:
+    """The hue plane's segmentation: rotated so the cut falls in the emptiest hue
+    (``hue_rotate``), grey pixels left out or made a class (``hue_grey``)."""
+    hue_defined = hsi.hue_defined
+    defined = hue_defined if valid is None else hue_defined & valid
+    offset = hue_histogram_rotation(hsi.h, defined) if params.hue_rotate else 0
+    if params.hue_grey == "unsegmented":
+        return segment_plane(hsi.h, params, mask=defined, offset=offset)
+    # Grey pixels go to code 0 of the hue rotated by ``offset`` ("zero" rotates by 0; "class"
+    # by the emptiest hue, so grey is a class of its own). uint8 arithmetic wraps modulo 256,
+    # which is the rotation.
+    grey = hue_defined.view(np.uint8) * np.uint8(255)
+    del hue_defined, defined
+    hue = cv2.bitwise_and(hsi.h + np.uint8(offset), grey)
+    del grey
+    return segment_plane(hue, params, mask=valid, offset=offset, rotated=True)
+
+
+@exact
+def _planes(kept: HSIPlanes | None, image: np.ndarray, params: VisionParams) -> HSIPlanes:
+    """The planes kept, else those of ``image`` made again."""
+    return kept if kept is not None else _prepare(image, params)[2]
+
+
+def _summed(segs: tuple[Segmentation, ...], params: VisionParams) -> np.ndarray:
+    """``interest.summed_uncommon`` a band of rows at a time: the same sum, value for value
+    (each pixel's is its own labels'), with a band's three float maps instead of the image's
+    (12 bytes per pixel)."""
+    rows, cols = segs[0].labels.shape
+    total = np.empty((rows, cols), np.float32)
+    step = max(1, BAND_PIXELS // max(cols, 1))
+    for r0 in range(0, rows, step):
+        band = np.s_[r0 : r0 + step, :]
+        total[band] = summed_uncommon(tuple(seg.window(band) for seg in segs), params)
+    return total
 
 
 def _fit_prior(prior: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

@@ -19,7 +19,13 @@ import dataclasses
 import cv2
 import numpy as np
 
-from .cooccurrence import PlaneClass, Segmentation, cooccurrence_histogram, diagonal_classes
+from .cooccurrence import (
+    BAND_PIXELS,
+    PlaneClass,
+    Segmentation,
+    cooccurrence_histogram,
+    diagonal_classes,
+)
 from .params import VisionParams
 
 __all__ = ["segment_plane"]
@@ -103,6 +109,8 @@ def segment_plane(
     params: VisionParams,
     mask: np.ndarray | None = None,
     offset: int = 0,
+    *,
+    rotated: bool = False,
 ) -> Segmentation:
     """Segment one 8-bit plane into at most 8 classes plus unsegmented pixels.
 
@@ -115,6 +123,9 @@ def segment_plane(
         Pixels outside the mask are never labelled and their pairs are not counted.
     offset : int
         Segment (plane + offset) mod 256 instead (hue rotation); recorded in the result.
+    rotated : bool
+        ``plane`` is already (value + offset) mod 256: segmented as it is, the offset only
+        recorded (the caller made the rotated plane and needs no second copy of it).
 
     Returns
     -------
@@ -137,13 +148,66 @@ def segment_plane(
     if plane.dtype != np.uint8:
         raise ValueError(f"expected uint8, got {plane.dtype}")
     # numpy uint8 addition wraps modulo 256, which is the hue rotation we want.
-    coded = plane if offset % 256 == 0 else plane + np.uint8(offset % 256)
+    coded = plane if rotated or offset % 256 == 0 else plane + np.uint8(offset % 256)
     hist = cooccurrence_histogram(coded, mask, params.cooc_max_pairs)
     prof, peaks = diagonal_classes(hist, params)
     if not peaks:
-        return Segmentation(np.zeros(plane.shape, np.uint8), (), hist, offset % 256, coded, prof)
+        labels = np.zeros(plane.shape, np.uint8)
+        return Segmentation(labels, (), hist, offset % 256, _values(coded, params), prof)
     order, u_lut = _value_tables(peaks, hist.sum(axis=1))
     classes = [peaks[i] for i in order]
+    raw, areas = _label(coded, u_lut, mask, params, len(classes))
+    ranked_ids = sorted(
+        (i for i in range(len(classes)) if areas[i] > 0),
+        key=lambda i: (-areas[i], -classes[i].height, classes[i].center),
+    )
+    to_rank = np.zeros(256, np.uint8)
+    for rank, i in enumerate(ranked_ids, start=1):
+        to_rank[i + 1] = rank
+    if ranked_ids != list(range(len(classes))):
+        cv2.LUT(raw, to_rank, dst=raw)
+    ranked = tuple(dataclasses.replace(classes[i], area=areas[i]) for i in ranked_ids)
+    return Segmentation(raw, ranked, hist, offset % 256, _values(coded, params), prof)
+
+
+def _values(coded: np.ndarray, params: VisionParams) -> np.ndarray | None:
+    """The coded plane, kept in the segmentation only where it is read (``value_rarity``): a
+    rotated hue is a plane-sized copy."""
+    return coded if params.value_rarity > 0 else None
+
+
+def _label(
+    coded: np.ndarray, u_lut: np.ndarray, mask: np.ndarray | None, params: VisionParams, k: int
+) -> tuple[np.ndarray, list[int]]:
+    """Label every pixel with its class id 1..``k`` (0: unsegmented) and count each class.
+
+    The vote and each relaxation pass read a pixel's 4 neighbours only, so a band of rows
+    labelled with ``1 + relax_passes`` rows of the image on each side holds exactly the
+    labels of the whole image: the band's temporaries (about 8 bytes per pixel) stay a
+    band's, whatever the image's size.
+    """
+    rows, cols = coded.shape
+    labels = np.empty((rows, cols), np.uint8)
+    areas = [0] * k
+    halo = 1 + params.relax_passes
+    step = max(1, BAND_PIXELS // max(cols, 1))
+    for r0 in range(0, rows, step):
+        r1 = min(rows, r0 + step)
+        top, bottom = max(0, r0 - halo), min(rows, r1 + halo)
+        band = _label_band(
+            coded[top:bottom], u_lut, None if mask is None else mask[top:bottom], params
+        )
+        labels[r0:r1] = band[r0 - top : r1 - top]
+        for c in range(k):
+            areas[c] += cv2.countNonZero(cv2.compare(labels[r0:r1], c + 1, cv2.CMP_EQ))
+    return labels, areas
+
+
+def _label_band(
+    coded: np.ndarray, u_lut: np.ndarray, mask: np.ndarray | None, params: VisionParams
+) -> np.ndarray:
+    """Class ids of a band of rows, exact but for the ``1 + relax_passes`` rows at each edge
+    that is not the image's."""
     u = cv2.LUT(coded, u_lut)
     ok = _vote(u, params.min_votes)
     if mask is not None:
@@ -159,15 +223,4 @@ def segment_plane(
         candidate = cv2.bitwise_and(candidate, has_class)
         for _ in range(params.relax_passes):
             raw = _relax(raw, candidate)
-    areas = [cv2.countNonZero(cv2.compare(raw, k, cv2.CMP_EQ)) for k in range(1, len(classes) + 1)]
-    ranked_ids = sorted(
-        (i for i in range(len(classes)) if areas[i] > 0),
-        key=lambda i: (-areas[i], -classes[i].height, classes[i].center),
-    )
-    to_rank = np.zeros(256, np.uint8)
-    for rank, i in enumerate(ranked_ids, start=1):
-        to_rank[i + 1] = rank
-    identity = ranked_ids == list(range(len(classes)))
-    labels = raw if identity else cv2.LUT(raw, to_rank)
-    ranked = tuple(dataclasses.replace(classes[i], area=areas[i]) for i in ranked_ids)
-    return Segmentation(labels, ranked, hist, offset % 256, coded, prof)
+    return raw

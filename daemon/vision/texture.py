@@ -61,14 +61,14 @@ def descriptors(bgr: np.ndarray, scales: tuple[float, ...], surround: float) -> 
     >>> round(float(descriptors(img, (1.5,), 16.0)[10, 10, 0]), 2)  # flat: no local contrast
     0.0
     """
-    grey, red_green, yellow_blue = cv2.split(cv2.transform(bgr.astype(np.float32), _OPPONENT))
-    # Centred on the image's mean: E[I^2] - E[I]^2 in float32 cancels badly on bright rock.
-    intensity = cv2.subtract(grey, float(cv2.mean(grey)[0]))
-    moments = cv2.merge([intensity, cv2.multiply(intensity, intensity)])
-    shape = grey.shape
+    opponent = cv2.transform(bgr.astype(np.float32), _OPPONENT)
+    grey = cv2.extractChannel(opponent, 0)
     ratio = cv2.log(grey + _FLOOR)  # brightness against the surroundings is a ratio
+    # Centred on the image's mean: E[I^2] - E[I]^2 in float32 cancels badly on bright rock.
+    moments, planes = _planes(opponent, np.float32(cv2.mean(grey)[0]), ratio)
+    shape = grey.shape
     # Mean and mean square of the intensity at the finest scale, chroma and log brightness.
-    fine = cv2.GaussianBlur(cv2.merge([moments, red_green, yellow_blue, ratio]), (0, 0), scales[0])
+    fine = cv2.GaussianBlur(planes, (0, 0), scales[0])
     feats = np.empty((*shape, len(scales) + 3), np.float32)
     for k, sigma in enumerate(scales):
         blurred = fine if sigma == scales[0] else grid.expand(*grid.surround(moments, sigma), shape)
@@ -77,6 +77,25 @@ def descriptors(bgr: np.ndarray, scales: tuple[float, ...], surround: float) -> 
     _likest_side(fine, around, round(surround), feats, len(scales))
     feats[:, :, -2:] = fine[:, :, 2:4]  # chroma
     return feats
+
+
+@kernel
+def _planes(opponent: np.ndarray, mean: np.float32, ratio: np.ndarray) -> tuple:
+    """(M, N, 2) the intensity (``opponent``'s channel 0) less ``mean`` and its square, and
+    (M, N, 5) those, the two chroma channels and ``ratio``: float32, in one pass where
+    splitting, subtracting, squaring and merging took six."""
+    rows, cols = ratio.shape
+    moments = np.empty((rows, cols, 2), np.float32)
+    planes = np.empty((rows, cols, 5), np.float32)
+    for y in range(rows):  # by rows: the inner loop runs over one row's memory
+        src, level, two, five = opponent[y], ratio[y], moments[y], planes[y]
+        for x in range(cols):
+            centred = src[x, 0] - mean
+            square = centred * centred
+            two[x, 0], two[x, 1] = centred, square
+            five[x, 0], five[x, 1], five[x, 2] = centred, square, src[x, 1]
+            five[x, 3], five[x, 4] = src[x, 2], level[x]
+    return moments, planes
 
 
 @kernel
@@ -145,19 +164,63 @@ def texture_rarity(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
     sample = feats[::step, ::step].reshape(-1, dims).astype(np.float64)
     if len(sample) < _MIN_FIT * dims:  # too few pixels to tell common texture from rare
         return np.zeros((rows, cols), np.float32)
-    mean, cov = sample.mean(0), np.cov(sample, rowvar=False)
+    mean, cov = _moments(sample)
     ridge = 1e-6 * np.eye(dims)
     for _ in range(params.texture_steps):
         dist = _mahalanobis(sample, mean, cov + ridge)
         keep = dist <= quantiles(dist, 1.0 - params.texture_trim)
-        kept = sample[keep]
-        mean, cov = kept.mean(0), np.cov(kept, rowvar=False)
+        mean, cov = _moments(sample[keep])
     return _mahalanobis(flat, mean, cov + ridge).reshape(rows, cols)
+
+
+def _moments(sample: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``sample.mean(0)`` and ``np.cov(sample, rowvar=False)`` of (n, d) float64 rows,
+    value for value: numpy's own steps on the same layouts (its column sums run row by row,
+    in order; the product is the same BLAS call), with the mean and the centring in one pass,
+    where numpy's broadcasts over d columns took most of the time."""
+    mean, centred = _mean_centred(sample)
+    x = centred.T  # np.cov's (d, n) view of its (n, d) copy
+    cov = np.dot(x, x.T.conj())
+    cov *= np.true_divide(1, len(sample) - 1)
+    return mean, cov
+
+
+@kernel
+def _mean_centred(sample: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The column means of (n, d) float64 rows (summed in row order, then divided by n)
+    and the rows less them."""
+    rows, dims = sample.shape
+    total = np.zeros(dims)
+    for i in range(rows):
+        row = sample[i]
+        for j in range(dims):
+            total[j] += row[j]
+    mean = total / rows
+    centred = np.empty_like(sample)
+    for i in range(rows):
+        row, diff = sample[i], centred[i]
+        for j in range(dims):
+            diff[j] = row[j] - mean[j]
+    return mean, centred
+
+
+@kernel
+def _centred(x: np.ndarray, mean: np.ndarray) -> np.ndarray:
+    """The rows of ``x`` less ``mean`` (float32), each difference in ``x``'s precision,
+    rounded to float32: ``(x - mean).astype(np.float32)`` in one pass, where numpy
+    broadcasts over the few columns slowly."""
+    rows, dims = x.shape
+    out = np.empty((rows, dims), np.float32)
+    for i in range(rows):
+        row, diff = x[i], out[i]
+        for j in range(dims):
+            diff[j] = row[j] - mean[j]
+    return out
 
 
 def _mahalanobis(x: np.ndarray, mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
     """Squared Mahalanobis distances of the rows of ``x``, float32."""
     values, vectors = np.linalg.eigh(cov)
     whiten = (vectors / np.sqrt(np.maximum(values, 1e-12))).astype(np.float32)
-    z = (x - mean.astype(np.float32)).astype(np.float32, copy=False) @ whiten
+    z = _centred(x, mean.astype(np.float32)) @ whiten
     return np.einsum("ij,ij->i", z, z)

@@ -24,7 +24,7 @@ import numpy as np
 from .cooccurrence import Segmentation
 from .params import VisionParams
 
-__all__ = ["uncommon_map", "uncommon_values", "value_rarity"]
+__all__ = ["UncommonWindows", "uncommon_map", "uncommon_values", "value_rarity"]
 
 
 def uncommon_values(seg: Segmentation, params: VisionParams) -> np.ndarray:
@@ -109,3 +109,27 @@ def uncommon_map(seg: Segmentation, params: VisionParams) -> np.ndarray:
         tail = cv2.LUT(seg.values, value_rarity(seg, params) * np.float32(params.value_rarity))
         umap += cv2.bitwise_and(tail, tail, mask=cv2.compare(seg.labels, 0, cv2.CMP_GT))
     return umap
+
+
+class UncommonWindows:
+    """A plane's uncommon map read a window at a time: ``windows[box]`` is
+    ``uncommon_map(seg, params)[box]``, value for value, without the full-size float map (4
+    bytes per pixel) that the explanations would otherwise keep for a few windows.
+
+    Examples
+    --------
+    >>> from cyborg.daemon.vision.segment import segment_plane
+    >>> from cyborg.daemon.vision.params import PAPER
+    >>> plane = np.full((20, 40), 40, np.uint8)
+    >>> plane[:, 30:] = 200
+    >>> seg = segment_plane(plane, PAPER)
+    >>> box = np.s_[2:9, 25:36]
+    >>> bool((UncommonWindows(seg, PAPER)[box] == uncommon_map(seg, PAPER)[box]).all())
+    True
+    """
+
+    def __init__(self, seg: Segmentation, params: VisionParams) -> None:
+        self._seg, self._params = seg, params
+
+    def __getitem__(self, box: tuple[slice, slice]) -> np.ndarray:
+        return uncommon_map(self._seg.window(box), self._params)

@@ -46,11 +46,12 @@ async def _engine(
     tmp_path: Path,
     config: SurveyConfig | None = None,
     camera: str = "sim://outcrop?seed=3",
+    head: str = "emu://?time_scale=50",
     **where: Any,
 ):
-    """A survey engine on the emulated PTU, the simulated outcrop (or ``camera``) and a real
-    worker; ``where`` (orientation, site) says where it stands."""
-    ptu = open_ptu("emu://?time_scale=50")
+    """A survey engine on the emulated PTU (or ``head``), the simulated outcrop (or
+    ``camera``) and a real worker; ``where`` (orientation, site) says where it stands."""
+    ptu = open_ptu(head)
     rig = Rig(ptu, lambda pose: open_camera(camera, pose=pose))
     async with VisionWorker() as worker:
         await ptu.open()

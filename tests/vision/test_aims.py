@@ -191,3 +191,43 @@ def test_a_vein_runs_on_a_curl_of_grain_does_not() -> None:
     bright = kind_maps(img, rgb_to_hsi(img), bars=line_rarity(img, DEFAULT))["bright"] >= 0.5
     assert bright[vein].mean() > 0.5
     assert not bright[_near_mask(curl.astype(bool))].any()
+
+
+def _bright_and_dark(img: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    maps = kind_maps(img, rgb_to_hsi(img), bars=line_rarity(img, DEFAULT))
+    return maps["bright"], maps["dark"]
+
+
+def _grey(rows: int, cols: int, seed: int) -> np.ndarray:
+    """Flat grey rock with sensor noise: float BGR."""
+    rng = np.random.default_rng(seed)
+    img = np.full((rows, cols, 3), 130.0)
+    return img + rng.normal(0.0, 2.0, img.shape)
+
+
+def test_a_vein_across_the_rock_outweighs_a_bright_line_along_a_contact() -> None:
+    """A bed's lit rim is a thin bright line too, but with a darker bed on one side all along
+    it: still bright (a vein may follow a bedding plane), after a vein across the rock."""
+    img = _grey(160, 240, 7)
+    img[80:] -= 40  # a darker bed below a contact
+    rim = cv2.line(np.zeros((160, 240), np.uint8), (20, 79), (140, 79), 1, 2).astype(bool)
+    img[rim] = 160
+    vein = cv2.line(np.zeros((160, 240), np.uint8), (150, 10), (220, 60), 1, 2).astype(bool)
+    img[vein] = 160
+    bright, _ = _bright_and_dark(np.clip(img, 0, 255).astype(np.uint8))
+    assert bright[vein].mean() > 0.8
+    assert bright[rim].max() <= 0.5
+
+
+def test_a_sliver_along_the_beds_is_no_stain() -> None:
+    """A long thin dark piece lying along the bedding is a thin bed's piece or a ledge's
+    shadow; a round stain as dark is a dark target."""
+    img = _grey(180, 240, 8)
+    for top in range(0, 180, 30):
+        img[top : top + 15] += 12  # beds across the view
+    stain = cv2.circle(np.zeros((180, 240), np.uint8), (60, 100), 12, 1, -1).astype(bool)
+    img[stain] *= 0.65
+    img[97:104, 148:182] *= 0.65  # the sliver, along the beds
+    _, dark = _bright_and_dark(np.clip(img, 0, 255).astype(np.uint8))
+    assert (dark[stain] >= 0.5).mean() > 0.3
+    assert not (dark[95:106, 145:185] >= 0.5).any()

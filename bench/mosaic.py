@@ -1,0 +1,254 @@
+"""Registered mosaics: seams and the science on them, butted against projected and registered.
+
+Each scene is a seeded target-free cliff (``camera.simulated.outcrop_panorama`` with no
+planted targets) seen through the simulated camera with a real camera's flaws and an
+emulated PTU with a real head's errors (``bench.chips``'s: 0.3° rms pointing error, 0.1°
+backlash; vignetting, barrel distortion, a drifting auto-exposure), seeded by the scene.
+The same head shoots each scene twice: a butted 2x3 mosaic (the seed's) and one overlapping
+by ``--overlap``, which is composed twice, from the recorded poses only and registered
+(``survey.stitch``). The truth is what the emulator knows and the rig does not: where the
+head truly looked for each tile.
+
+- **seam residual**: for two adjacent tiles, the angle between the directions each shows at
+  the same mosaic pixel (along the shared edge when butted, over the overlap otherwise), in
+  mosaic pixels; per pair the median, then the median and p95 over pairs.
+- **top-3 on a seam**: the share of mosaics where one of the ``default`` profile's first
+  three points lies within ``SEAM_PX`` of a seam: where the pixels' tile changes (the
+  butted grid's lines; the seam finder's cuts), with the share of the mosaic such bands
+  cover for scale (the rate a point dropped at random would have).
+- **compose**: CPU seconds to register and compose a mosaic.
+
+Chip centring with and without refined pointing is ``bench.chips``; a station's wall time
+against the motion-plus-grab bound is ``bench.survey`` (run with ``overlap`` set).
+
+Usage: ``python -m bench.mosaic [--scenes 20] [--first-seed 0] [--overlap 0.3] [--dump DIR]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import math
+import statistics
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from bench.chips import CAMERA_FLAWS, HEAD_ERRORS
+from bench.stats import wilson
+from cyborg.daemon.camera.simulated import Panorama, SimulatedCamera, outcrop_panorama
+from cyborg.daemon.pointing.geometry import (
+    CameraModel,
+    MosaicGeometry,
+    SphericalMosaic,
+    angles_to_pixel,
+    pixel_to_angles,
+)
+from cyborg.daemon.ptu.emulated import EmulatedPtu
+from cyborg.daemon.sim.camera_effects import radial_undistort
+from cyborg.daemon.survey.stitch import Stitcher
+from cyborg.daemon.vision.job import analyze_image, input_points
+from cyborg.daemon.vision.params import profile
+
+CAMERA = CameraModel(720, 576, 30.0)
+DOWNSAMPLE = 4.0
+SEAM_PX = 3
+"""Mosaic pixels either side of a seam that count as on it."""
+TOP = 3
+
+
+@dataclass(frozen=True)
+class Shot:
+    row: int
+    col: int
+    image: np.ndarray
+    recorded: tuple[float, float]
+    true: tuple[float, float]
+
+
+async def _shoot(panorama: Panorama, geometry: MosaicGeometry, seed: int) -> list[Shot]:
+    """Every tile of ``geometry`` as the flawed head and camera of scene ``seed`` shoot it."""
+    ptu = EmulatedPtu.from_url(f"emu://?time_scale=1000&{HEAD_ERRORS}&error_seed={seed}")
+    await ptu.open()
+    camera = SimulatedCamera(
+        panorama, CAMERA, pose=ptu.true_pose, seed=seed, imperfections=CAMERA_FLAWS
+    )
+    shots = []
+    try:
+        for row, col in geometry.serpentine():
+            here = await ptu.move_to(*geometry.tile_pose(row, col))
+            true = await ptu.true_pose()
+            frame = await camera.grab()
+            shots.append(Shot(row, col, frame.image, (here.pan, here.tilt), true))
+    finally:
+        await ptu.close()
+    return shots
+
+
+def _true_angles(x, y, pose: tuple[float, float]):
+    """World (pan, tilt) a pixel of a frame truly shows: its lens's distortion undone, seen
+    from where the head truly was."""
+    f, cx, cy = CAMERA.focal, CAMERA.width / 2.0, CAMERA.height / 2.0
+    u, v = radial_undistort((x - cx) / f, (y - cy) / f, CAMERA_FLAWS.k1, CAMERA_FLAWS.k2)
+    return pixel_to_angles(cx + f * u, cy + f * v, *pose, CAMERA)
+
+
+def _apart(a, b, degrees_per_pixel: float) -> np.ndarray:
+    """Angle between directions ``a`` and ``b`` ((pan, tilt) arrays), mosaic pixels."""
+    dpan = (a[0] - b[0]) * np.cos(np.radians(a[1]))
+    return np.hypot(dpan, a[1] - b[1]) / degrees_per_pixel
+
+
+def _pairs(shots: list[Shot]) -> list[tuple[Shot, Shot]]:
+    return [
+        (s, t)
+        for s in shots
+        for t in shots
+        if (t.row, t.col) in ((s.row, s.col + 1), (s.row + 1, s.col))
+    ]
+
+
+def _butted(shots: list[Shot], g: MosaicGeometry) -> tuple[np.ndarray, list[float], np.ndarray]:
+    """The butted mosaic, each seam's residual and the seam bands."""
+    w, h = g.tile_size
+    mosaic = np.zeros((g.size[1], g.size[0], 3), np.uint8)
+    for s in shots:
+        small = cv2.resize(s.image, (w, h), interpolation=cv2.INTER_AREA)
+        mosaic[s.row * h : (s.row + 1) * h, s.col * w : (s.col + 1) * w] = small
+    along = np.linspace(0.0, 1.0, 65)
+    residuals = []
+    for s, t in _pairs(shots):
+        if t.col > s.col:  # s's right edge against t's left
+            ys = along * CAMERA.height
+            edge_s, edge_t = (np.full_like(ys, CAMERA.width), ys), (np.zeros_like(ys), ys)
+        else:
+            xs = along * CAMERA.width
+            edge_s, edge_t = (xs, np.full_like(xs, CAMERA.height)), (xs, np.zeros_like(xs))
+        a, b = _true_angles(*edge_s, s.true), _true_angles(*edge_t, t.true)
+        residuals.append(float(np.median(_apart(a, b, g.degrees_per_pixel))))
+    band = np.zeros(mosaic.shape[:2], bool)
+    for c in range(1, g.cols):
+        band[:, c * w - SEAM_PX : c * w + SEAM_PX] = True
+    for r in range(1, g.rows):
+        band[r * h - SEAM_PX : r * h + SEAM_PX, :] = True
+    return mosaic, residuals, band
+
+
+def _projected(
+    shots: list[Shot], g: SphericalMosaic, register: bool
+) -> tuple[np.ndarray, list[float], np.ndarray, float]:
+    """The overlapping mosaic from the recorded poses, registered or not; each seam's
+    residual, the seam bands and the CPU seconds it took."""
+    t0 = time.process_time()
+    stitcher = Stitcher(g, register=register)
+    placed = {}
+    for s in shots:
+        placed[s.row, s.col] = stitcher.add(s.row, s.col, s.image, s.recorded).placed
+    mosaic = stitcher.compose()
+    cpu = time.process_time() - t0
+    (u0, v0), (width, height) = g.origin, g.size
+    pan = np.degrees((u0 + np.arange(width)) / g.scale)[None, :]
+    tilt = np.degrees(math.pi / 2 - (v0 + np.arange(height)) / g.scale)[:, None]
+    pan, tilt = np.broadcast_arrays(pan, tilt)
+    pixels, inside = {}, {}
+    for s in shots:
+        x, y = angles_to_pixel(pan, tilt, *placed[s.row, s.col], CAMERA)
+        pixels[s.row, s.col] = (x, y)
+        inside[s.row, s.col] = (x >= 0) & (x < CAMERA.width) & (y >= 0) & (y < CAMERA.height)
+    residuals = []
+    for s, t in _pairs(shots):
+        both = inside[s.row, s.col] & inside[t.row, t.col]
+        xs, ys = (v[both] for v in pixels[s.row, s.col])
+        xt, yt = (v[both] for v in pixels[t.row, t.col])
+        a, b = _true_angles(xs, ys, s.true), _true_angles(xt, yt, t.true)
+        residuals.append(float(np.median(_apart(a, b, g.degrees_per_pixel))))
+    owners = stitcher.owners.astype(np.float32)
+    kernel = np.ones((2 * SEAM_PX + 1, 2 * SEAM_PX + 1), np.uint8)
+    band = (cv2.dilate(owners, kernel) != cv2.erode(owners, kernel)) & (owners >= 0)
+    band &= cv2.erode(owners, kernel) >= 0  # where tiles meet, not the edge of the no-data
+    return mosaic, residuals, band, cpu
+
+
+def _on_seam(mosaic: np.ndarray, band: np.ndarray, dump: Path | None = None) -> bool:
+    """Whether one of the ``default`` profile's first points lies on a seam band; when it
+    does and ``dump`` is given, the mosaic is written there with the band and points drawn."""
+    bgr, res = analyze_image(mosaic, profile("default"))
+    points = input_points(bgr.shape, res)[:TOP]
+    hit = any(
+        0 <= round(p.y) < band.shape[0]
+        and 0 <= round(p.x) < band.shape[1]
+        and band[round(p.y), round(p.x)]
+        for p in points
+    )
+    if hit and dump is not None:
+        shown = mosaic.copy()
+        shown[band] = (shown[band] // 2 + (0, 0, 127)).astype(np.uint8)
+        for k, p in enumerate(points):
+            cv2.circle(shown, (round(p.x), round(p.y)), 6, (0, 255, 255), 1)
+            cv2.putText(shown, str(k + 1), (round(p.x) + 7, round(p.y)), 0, 0.4, (0, 255, 255))
+        cv2.imwrite(str(dump), cv2.resize(shown, None, fx=3, fy=3, interpolation=cv2.INTER_NEAREST))
+    return hit
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="bench.mosaic", description=__doc__)
+    ap.add_argument("--scenes", type=int, default=20)
+    ap.add_argument("--overlap", type=float, default=0.3)
+    ap.add_argument("--first-seed", type=int, default=0)
+    ap.add_argument("--dump", type=Path, help="write mosaics with a top-3 point on a seam here")
+    args = ap.parse_args(argv)
+    if args.dump is not None:
+        args.dump.mkdir(parents=True, exist_ok=True)
+    butted = MosaicGeometry(CAMERA, 2, 3, 0.0, 0.0, DOWNSAMPLE)
+    overlapping = butted.overlapping(args.overlap)
+    methods = ("butted", "pose only", "registered")
+    residuals: dict[str, list[float]] = {m: [] for m in methods}
+    hits = dict.fromkeys(methods, 0)
+    share: dict[str, list[float]] = {m: [] for m in methods}
+    cpu: dict[str, list[float]] = {m: [] for m in methods[1:]}
+    for seed in range(args.first_seed, args.first_seed + args.scenes):
+        panorama = outcrop_panorama(seed, n_targets=0)
+        mosaic, res, band = _butted(asyncio.run(_shoot(panorama, butted, seed)), butted)
+        results = {"butted": (mosaic, res, band)}
+        shots = asyncio.run(_shoot(panorama, overlapping, seed))
+        for name, register in (("pose only", False), ("registered", True)):
+            mosaic, res, band, seconds = _projected(shots, overlapping, register)
+            results[name] = (mosaic, res, band)
+            cpu[name].append(seconds)
+        for name, (mosaic, res, band) in results.items():
+            residuals[name].extend(res)
+            share[name].append(float(band.mean()))
+            dump = None if args.dump is None else args.dump / f"{seed}-{name.replace(' ', '-')}.png"
+            hits[name] += _on_seam(mosaic, band, dump)
+        print(
+            f"scene {seed}: " + ", ".join(f"{m} {max(results[m][1]):.2f}" for m in methods),
+            "px worst seam",
+            file=sys.stderr,
+        )
+    print(
+        f"{args.scenes} target-free scenes (seeds {args.first_seed}+), 2x3 mosaics (overlap "
+        f"{args.overlap:g} when projected), head {HEAD_ERRORS}, camera {CAMERA_FLAWS}"
+    )
+    print(
+        f"{'mosaic':<11} {'seam px median':>15} {'p95':>6} {'top-3 on seam':>14} "
+        f"{'95 % interval':>14} {'seam share':>11} {'compose cpu s':>14}"
+    )
+    for m in methods:
+        r = np.asarray(residuals[m])
+        seconds = f"{statistics.median(cpu[m]):14.3f}" if m in cpu else f"{'-':>14}"
+        low, high = wilson(hits[m] / max(args.scenes, 1), args.scenes)
+        print(
+            f"{m:<11} {np.median(r):15.2f} {np.percentile(r, 95):6.2f} "
+            f"{hits[m]:>3}/{args.scenes:<3} {hits[m] / args.scenes:6.1%} "
+            f"{f'{low:.1%}-{high:.1%}':>14} {statistics.mean(share[m]):10.1%} {seconds}"
+        )
+    print("goals with registration: seam median <= 1 px, p95 <= 2 px; top-3 on a seam in <= 2 %")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

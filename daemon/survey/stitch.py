@@ -1,0 +1,371 @@
+"""A registered mosaic: overlapping frames projected onto one spherical canvas from the
+poses the head recorded, each pose refined on the frames placed before it, gains
+compensated and seams blended (OpenCV's ``detail`` module, as its stitching pipeline uses it).
+
+Registration is seeded by the pose and only ever corrects it: a frame is moved by the ECC
+translation that best aligns it with its already placed neighbours on their overlap, and
+only when the alignment is confident (correlation, texture in both directions) and the
+correction is one the head could plausibly have made. Otherwise (textureless rock, sky, no
+overlap) the frame stays where the head says, and says so. Pixels no frame covers are
+no-data: exactly black (``vision.nodata``).
+
+Pure imaging: frames and poses in, a mosaic and per-tile records out.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+
+from ..pointing.geometry import SphericalMosaic
+
+__all__ = ["Stitcher", "TileFit", "rotation"]
+
+_LOGGER = logging.getLogger(__name__)
+
+MAX_CORRECTION_DEG = 2.0
+"""Largest correction accepted: what two poses, each a few tenths of a degree off on each
+axis (0.3° rms plus backlash on the emulated PTU-46), can disagree by, with room to spare;
+beyond it a match is more likely a repeated pattern than the head's error."""
+MIN_CONFIDENCE = 0.5
+"""Lowest ECC correlation coefficient (of the overlaps' texture, shading removed) of an
+accepted registration: the simulated cliff's rock under a flawed camera correlates at 0.8
+to 0.95 once aligned, and a first try several pixels off can land at 0.5 on the way there;
+frames that show different things stay near 0."""
+MIN_TEXTURE = 0.6
+"""Lowest RMS grey-level gradient (per mosaic pixel) in the overlap's weakest direction: below
+it a shift along that direction is not measured but guessed (sky, smooth rock, a gradient).
+Sensor noise of 2 grey levels gives 0.2 once reduced 4 times; the simulated cliff's finest
+rock 1.2 and more."""
+_MIN_OVERLAP = 200
+"""Fewest overlapping pixels worth registering on."""
+_ITERATIONS = 2
+"""Register, re-project, register again: a tilt correction is a vertical shift on the
+canvas only to first order."""
+_SHADE = 6.0
+"""Sigma (mosaic pixels) of the shading taken off before registering: wider than rock
+grain, narrower than a frame's vignetting."""
+_SEAM_SHADE = 3.0
+"""Sigma (mosaic pixels) of the shading taken off the frames before finding seams."""
+_SEAM_EDGE = 4.0
+"""Weight of a frame's edges (grey levels per pixel) in the seam's cost."""
+_SEAM_REACH = 6.0
+"""Sigma (mosaic pixels) over which an edge makes a seam costly: a small feature's whole
+body, not only its outline."""
+_ECC = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 60, 1e-4)
+
+
+def rotation(pan: float, tilt: float) -> np.ndarray:
+    """The camera-to-world rotation of a head at (pan, tilt) degrees, in OpenCV's axes (x
+    right, y down, z forward), as ``pointing.geometry.pixel_to_angles`` turns rays.
+
+    >>> np.round(rotation(90.0, 0.0) @ [0.0, 0.0, 1.0], 6).tolist()  # looking right
+    [1.0, 0.0, 0.0]
+    """
+    p, t = math.radians(pan), math.radians(tilt)
+    cp, sp, ct, st = math.cos(p), math.sin(p), math.cos(t), math.sin(t)
+    return np.array([[cp, st * sp, ct * sp], [0.0, ct, -st], [-sp, st * cp, ct * cp]], np.float32)
+
+
+@dataclass(frozen=True)
+class TileFit:
+    """How one tile was placed: the recorded pose, the correction registration made (mosaic
+    pixels and degrees; zero when it fell back to the pose), and why."""
+
+    row: int
+    col: int
+    pose: tuple[float, float]
+    shift_px: tuple[float, float] = (0.0, 0.0)
+    correction_deg: tuple[float, float] = (0.0, 0.0)
+    confidence: float = 0.0
+    registered: bool = False
+    note: str = ""
+
+    @property
+    def placed(self) -> tuple[float, float]:
+        """The pose the tile is projected from."""
+        return self.pose[0] + self.correction_deg[0], self.pose[1] + self.correction_deg[1]
+
+    def record(self) -> dict[str, Any]:
+        """The manifest's ``registration`` of the tile."""
+        return {
+            "registered": self.registered,
+            "dx_px": round(self.shift_px[0], 3),
+            "dy_px": round(self.shift_px[1], 3),
+            "dpan_deg": round(self.correction_deg[0], 5),
+            "dtilt_deg": round(self.correction_deg[1], 5),
+            "confidence": round(self.confidence, 4),
+            "note": self.note,
+        }
+
+
+@dataclass
+class _Warped:
+    corner: tuple[int, int]
+    """Top-left in mosaic pixels."""
+    image: np.ndarray
+    mask: np.ndarray
+
+
+class Stitcher:
+    """Places frames one at a time (:meth:`add`: registered on those placed before, warped,
+    and its seams with them cut, while the head moves to the next), then composes the mosaic
+    (:meth:`compose`: gains and blending, which need every frame)."""
+
+    def __init__(
+        self,
+        geometry: SphericalMosaic,
+        max_correction_deg: float = MAX_CORRECTION_DEG,
+        min_confidence: float = MIN_CONFIDENCE,
+        *,
+        register: bool = True,
+    ) -> None:
+        """``register`` false places every frame by its pose alone."""
+        self.geometry = geometry
+        self.register = register
+        self.max_correction_deg = max_correction_deg
+        self.min_confidence = min_confidence
+        cam, (tw, th) = geometry.camera, geometry.tile_size
+        fx, fy = cam.focal * tw / cam.width, cam.focal * th / cam.height
+        # Pixel index k's centre is k in OpenCV, k + 0.5 in pointing.geometry.
+        self._k = np.array([[fx, 0, tw / 2 - 0.5], [0, fy, th / 2 - 0.5], [0, 0, 1]], np.float32)
+        self._warper = cv2.PyRotationWarper("spherical", geometry.scale)
+        width, height = geometry.size
+        self._reference = np.zeros((height, width), np.float32)
+        self._covered = np.zeros((height, width), np.uint8)
+        self._shown = np.zeros((height, width, 3), np.float32)
+        """The seam cost image (:func:`_seam_cost`) of the tile each pixel shows."""
+        self.tiles: list[tuple[np.ndarray, TileFit]] = []
+        self._warped: list[_Warped] = []
+        self.owners = np.full((height, width), -1, np.int16)
+        """Which tile (its index in :attr:`tiles`) each mosaic pixel shows (-1: none): the
+        seams are where it changes; pixels no frame covers stay -1 once composed."""
+
+    def reduce(self, image: np.ndarray) -> np.ndarray:
+        """A frame at the mosaic's scale, as the butted mosaic reduces it."""
+        return cv2.resize(image, self.geometry.tile_size, interpolation=cv2.INTER_AREA)
+
+    def _warp(self, small: np.ndarray, pose: tuple[float, float]) -> _Warped:
+        """``small`` projected from ``pose``: its corner on the canvas, image and mask (its
+        own no-data excluded, the bilinear rim eroded)."""
+        r = rotation(*pose)
+        corner, image = self._warper.warp(small, self._k, r, cv2.INTER_LINEAR, cv2.BORDER_CONSTANT)
+        valid = np.where(small.any(axis=2), 255, 0).astype(np.uint8)
+        _, mask = self._warper.warp(valid, self._k, r, cv2.INTER_NEAREST, cv2.BORDER_CONSTANT)
+        mask = cv2.erode(mask, np.ones((3, 3), np.uint8))
+        u0, v0 = self.geometry.origin
+        return _Warped((corner[0] - u0, corner[1] - v0), image, mask)
+
+    def _window(self, w: _Warped) -> tuple[slice, slice, slice, slice] | None:
+        """Matching slices (canvas rows, cols, warped rows, cols) of a warped frame's part on
+        the canvas; None if it lies wholly outside."""
+        height, width = self._covered.shape
+        (x, y), (h, wd) = w.corner, w.mask.shape
+        x0, y0, x1, y1 = max(x, 0), max(y, 0), min(x + wd, width), min(y + h, height)
+        if x0 >= x1 or y0 >= y1:
+            return None
+        return slice(y0, y1), slice(x0, x1), slice(y0 - y, y1 - y), slice(x0 - x, x1 - x)
+
+    def _measure(self, w: _Warped) -> tuple[np.ndarray, float, str]:
+        """The ECC shift (dx, dy) aligning ``w`` with the placed frames (pixels, to add to
+        its corner), the correlation, and what failed ('' if nothing)."""
+        win = self._window(w)
+        if win is None:
+            return np.zeros(2), 0.0, "outside the mosaic"
+        cr, cc, wr, wc = win
+        overlap = (w.mask[wr, wc] > 0) & (self._covered[cr, cc] > 0)
+        if int(overlap.sum()) < _MIN_OVERLAP:
+            return np.zeros(2), 0.0, "no overlap with placed frames"
+        ys, xs = np.nonzero(overlap)
+        r0, r1, c0, c1 = ys.min(), ys.max() + 1, xs.min(), xs.max() + 1
+        band = overlap[r0:r1, c0:c1].astype(np.uint8)
+        template = _detail(self._reference[cr, cc][r0:r1, c0:c1], band)
+        grey = cv2.cvtColor(w.image, cv2.COLOR_BGR2GRAY)[wr, wc][r0:r1, c0:c1]
+        moving = _detail(grey.astype(np.float32), band)
+        texture = _weakest_gradient(template, band)
+        if texture < MIN_TEXTURE:
+            return np.zeros(2), 0.0, f"textureless overlap (gradient {texture:.2f})"
+        try:
+            rho, warp = _ecc(template, moving, band)
+        except cv2.error as exc:
+            return np.zeros(2), 0.0, f"ECC failed ({str(exc).strip().splitlines()[-1]})"
+        # ECC finds moving(x + p) = template(x): the frame shows its content p too far on.
+        return -warp[:, 2].astype(np.float64), float(rho), ""
+
+    def add(self, row: int, col: int, image: np.ndarray, pose: tuple[float, float]) -> TileFit:
+        """Place a frame shot at the recorded ``pose`` (degrees), registered on the frames
+        placed before it; its fit."""
+        small = self.reduce(image)
+        if not self.tiles:
+            fit = TileFit(row, col, pose, note="the first tile anchors the mosaic")
+        elif self.register:
+            fit = self._register(row, col, small, pose)
+        else:
+            fit = TileFit(row, col, pose, note="placed by its pose")
+        warped = self._warp(small, fit.placed)
+        self._paste(warped)
+        self._cut(warped, len(self.tiles), (-1.0) ** (row + col))
+        self.tiles.append((small, fit))
+        self._warped.append(warped)
+        return fit
+
+    def _register(
+        self, row: int, col: int, small: np.ndarray, pose: tuple[float, float]
+    ) -> TileFit:
+        """The fit of a frame registered on the placed frames, or kept at its pose."""
+        per_deg = math.radians(1.0) * self.geometry.scale  # mosaic pixels per degree
+        shift, rho = np.zeros(2), 0.0
+        for _ in range(_ITERATIONS):
+            placed = (pose[0] + shift[0] / per_deg, pose[1] - shift[1] / per_deg)
+            step, measured, failed = self._measure(self._warp(small, placed))
+            total = shift + step
+            if not failed and measured < self.min_confidence:
+                failed = f"low confidence ({measured:.2f})"
+            if not failed and float(np.hypot(*total)) > self.max_correction_deg * per_deg:
+                failed = (
+                    f"correction of {np.hypot(*total) / per_deg:.2f}° is over "
+                    f"{self.max_correction_deg:g}°"
+                )
+            if failed and rho:  # the last accepted step stands
+                break
+            if failed:
+                _LOGGER.info("tile (%d, %d) kept at its pose: %s", row, col, failed)
+                return TileFit(row, col, pose, confidence=measured, note=failed)
+            shift, rho = total, measured
+        degrees = (float(shift[0]) / per_deg, -float(shift[1]) / per_deg)
+        return TileFit(row, col, pose, (float(shift[0]), float(shift[1])), degrees, rho, True)
+
+    def _paste(self, w: _Warped) -> None:
+        """Add a placed frame to the reference later frames register on (first come, kept)."""
+        win = self._window(w)
+        if win is None:
+            return
+        cr, cc, wr, wc = win
+        fresh = (w.mask[wr, wc] > 0) & (self._covered[cr, cc] == 0)
+        grey = cv2.cvtColor(w.image, cv2.COLOR_BGR2GRAY)[wr, wc].astype(np.float32)
+        self._reference[cr, cc][fresh] = grey[fresh]
+        self._covered[cr, cc][fresh] = 255
+
+    def _cut(self, w: _Warped, k: int, sign: float) -> None:
+        """Give tile ``k`` the pixels on its side of the graph-cut seam with the tiles shown
+        so far (all it covers where none is): :attr:`owners`."""
+        win = self._window(w)
+        if win is None:
+            return
+        cr, cc, wr, wc = win
+        cost = _seam_cost(w.image, sign)[wr, wc]
+        mask = np.where(w.mask[wr, wc] > 0, 255, 0).astype(np.uint8)
+        shown = np.where(self.owners >= 0, 255, 0).astype(np.uint8)
+        if shown[cr, cc][mask > 0].any():
+            _, cut = cv2.detail_GraphCutSeamFinder("COST_COLOR").find(
+                [self._shown, cost],
+                [(0, 0), (cc.start, cr.start)],
+                [cv2.UMat(shown), cv2.UMat(mask)],
+            )
+            mask = cut.get()
+        mine = mask > 0
+        self.owners[cr, cc][mine] = k
+        self._shown[cr, cc][mine] = cost[mine]
+
+    def compose(self) -> np.ndarray:
+        """The mosaic: every frame from its placed pose, gains compensated, seams found and
+        blended; black where no frame reaches. Shape ``(height, width, 3)`` uint8.
+        :attr:`owners` then says which tile (its index in :attr:`tiles`) each pixel shows,
+        -1 for none: the seams are where it changes."""
+        width, height = self.geometry.size
+        if not self.tiles:
+            return np.zeros((height, width, 3), np.uint8)
+        warped = self._warped
+        compensator = cv2.detail.BlocksGainCompensator()
+        compensator.feed(
+            corners=[w.corner for w in warped],
+            images=[w.image for w in warped],
+            masks=[w.mask for w in warped],
+        )
+        blender = cv2.detail_MultiBandBlender(0, 3)
+        blender.prepare((0, 0, width, height))
+        for k, w in enumerate(warped):
+            win = self._window(w)
+            if win is None:
+                continue
+            cr, cc, wr, wc = win
+            image = compensator.apply(k, w.corner, w.image.copy(), w.mask)[wr, wc]
+            seam_mask = np.where(self.owners[cr, cc] == k, 255, 0).astype(np.uint8)
+            blender.feed(image.astype(np.int16), seam_mask, (cc.start, cr.start))
+        result, result_mask = blender.blend(None, None)
+        mosaic = np.clip(result, 0, 255).astype(np.uint8)
+        mosaic[result_mask == 0] = 0
+        self.owners[result_mask == 0] = -1
+        return mosaic
+
+
+def _ecc(template: np.ndarray, moving: np.ndarray, mask: np.ndarray) -> tuple[float, np.ndarray]:
+    """The ECC translation (correlation, 2x3 warp) aligning ``moving`` on ``template`` over
+    ``mask``, started from no shift and from the phase correlation's, the better kept: a
+    head's error of a degree is several mosaic pixels, beyond where ECC alone converges."""
+    band = mask > 0
+    filled = [np.where(band, img, np.float32(img[band].mean())) for img in (template, moving)]
+    window = cv2.createHanningWindow(template.shape[::-1], cv2.CV_32F)
+    (dx, dy), _ = cv2.phaseCorrelate(*filled, window)
+    best: tuple[float, np.ndarray] | None = None
+    failure: cv2.error | None = None
+    for seed in ((0.0, 0.0), (dx, dy)):
+        warp = np.array([[1, 0, seed[0]], [0, 1, seed[1]]], np.float32)
+        try:
+            found = cv2.findTransformECC(
+                template, moving, warp, cv2.MOTION_TRANSLATION, _ECC, mask, 3
+            )
+        except cv2.error as exc:
+            failure = exc
+            continue
+        if best is None or found[0] > best[0]:
+            best = found
+    if best is None:
+        raise failure or cv2.error("ECC found nothing")
+    return best
+
+
+def _seam_cost(image: np.ndarray, sign: float) -> np.ndarray:
+    """What the seam finder compares (float32): the frame's detail, its shading taken off,
+    and its edges' strength added with ``sign`` (+1 or -1, opposite for neighbouring tiles).
+
+    On colour a seam runs where the frames' levels differ least: the dark of a shadow or a
+    ledge (a gain's error scales with the level), just where the science looks. On detail
+    it runs where the frames agree; the edges' strength, of opposite signs in two
+    neighbours, makes cutting through an edge cost what the edge is worth, so the seam
+    keeps to plain rock and the science sees no seam along its features."""
+    img = image.astype(np.float32)
+    detail = img - cv2.GaussianBlur(img, (0, 0), _SEAM_SHADE)
+    grey = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+    edges = cv2.magnitude(
+        cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3), cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3)
+    )
+    edges = cv2.GaussianBlur(edges, (0, 0), _SEAM_REACH) * (_SEAM_EDGE / 8.0 * sign)
+    return detail + edges[..., None]
+
+
+def _detail(grey: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """``grey`` less its local mean over ``mask`` (Gaussian, sigma :data:`_SHADE`): the
+    rock's texture without the vignetting and exposure ramps that differ between two frames
+    on their overlap (one frame's left edge is the other's right)."""
+    m = mask.astype(np.float32)
+    num = cv2.GaussianBlur(grey * m, (0, 0), _SHADE)
+    den = cv2.GaussianBlur(m, (0, 0), _SHADE)
+    return np.where(mask > 0, grey - num / np.maximum(den, 1e-3), 0.0).astype(np.float32)
+
+
+def _weakest_gradient(grey: np.ndarray, mask: np.ndarray) -> float:
+    """RMS gradient (grey levels per pixel) along the overlap's least textured direction:
+    the square root of the smaller eigenvalue of the mean structure tensor on ``mask``."""
+    gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3) / 8.0
+    gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3) / 8.0
+    inner = cv2.erode(mask, np.ones((3, 3), np.uint8)) > 0
+    if not inner.any():
+        return 0.0
+    a, b, c = (float(v[inner].mean()) for v in (gx * gx, gx * gy, gy * gy))
+    return math.sqrt(max(0.0, (a + c) / 2 - math.hypot((a - c) / 2, b)))
