@@ -20,9 +20,11 @@ Scoring, as the data's README states it. Each method returns its top 3 points, b
   so every hit rate, is the image as stored;
 * chance: what a uniform random point scores, the mean dilated-mask area (top1, p@3) and
   the mean of 1 - (1 - area)^3 (any3);
-* ms: median milliseconds per image (the clean look, from decoded image to points), every
+* ms: median CPU milliseconds per image (the clean look, from decoded image to points), every
   method on one BLAS and one OpenCV thread as the rig's analysis processes run
-  (``threads.single_thread``); ``speed:`` gives ``default``'s over RX's and colour rarity's.
+  (``threads.single_thread``); CPU time, not wall time, so a shared machine's load does not
+  swing the ratios (wall-time ratios moved by 25 % under load); ``speed:`` gives
+  ``default``'s over RX's and colour rarity's.
 
 Rates are per set (marsdata also per Rock-A / Rock-B tag; every extra ``masks_<x>`` folder,
 i.e. cwfid's weed-only masks, as an extra row ``<set>-<x>``) and pooled over all images
@@ -176,9 +178,9 @@ def score_image(
     rec = Record(folder.name, name, tag, {k: float(v.mean()) for k, v in near.items()})
     tolerance = REPEAT_SHARE * diagonal(image.shape)
     for mname, method in table.items():
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         points = method(image, np.random.default_rng([seed, 0]))
-        rec.ms[mname] = (time.perf_counter() - t0) * 1e3
+        rec.ms[mname] = (time.process_time() - t0) * 1e3
         rec.flags[mname] = {kind: hits(n, points) for kind, n in near.items()}
         again = [method(look, np.random.default_rng([seed, 1 + k])) for k, look in enumerate(noisy)]
         rec.repeat[mname] = repeats(*again, tolerance)
@@ -375,7 +377,7 @@ def format_table(results: dict[str, Any]) -> list[str]:
     speed = speed_ratios(groups["pooled"]["rates"]) if "pooled" in groups else {}
     if speed:
         lines.append(
-            "speed: median ms per image, default / baseline (same run, one thread): "
+            "speed: median CPU ms per image, default / baseline (same run, one thread): "
             + ", ".join(f"{b} {r:.2f}x (goal <= {SPEED_GOALS[b]:g})" for b, r in speed.items())
         )
     return lines
