@@ -18,7 +18,7 @@ from cyborg.protocol.messages import InterestPoint, SurveyStart
 
 from ..archive import Archive, ArchiveError
 from ..camera import Camera
-from ..pointing.geometry import CameraModel, MosaicGeometry
+from ..pointing.geometry import CameraModel, MosaicGeometry, SphericalMosaic
 from .site import Leg, place
 
 if TYPE_CHECKING:  # config imports the survey package (its site)
@@ -42,6 +42,12 @@ def walks(cfg: SurveyConfig) -> bool:
     closer along the line of sight, which the narrowing lens renders), so it is placed as one.
     """
     return not cfg.zoom_on_target
+
+
+def _overlap(profile: str, overlap: float) -> float:
+    """The share of a field of view a station of ``profile`` overlaps its frames by,
+    ``[survey] overlap`` being ``overlap``: none for ``paper``, the seed's butting its choice."""
+    return 0.0 if profile == "paper" else overlap
 
 
 def station_geometry(archive: Archive, station_id: str) -> MosaicGeometry:
@@ -100,7 +106,8 @@ class Approach:
     bearing: float | None = None
     """The aimed target's azimuth at the station it was chosen at: the way the rig walks."""
     mosaic: tuple[int, int] | None = None
-    """(rows, cols) fitted to the aimed target's size."""
+    """(rows, cols) fields of view fitted to the aimed target's size: as many butted frames,
+    more overlapping ones (:meth:`complete`)."""
     sought: str = ""
     """The aim of study (``protocol.aims``) the session's last station asked for."""
 
@@ -152,15 +159,20 @@ class Approach:
 
     def complete(self, req: SurveyStart, cfg: SurveyConfig) -> SurveyStart:
         """``req`` with what it leaves open filled in: the mosaic fitted to the aimed
-        target, else the configured one; the configured reduction, profile and settings;
-        the aim of study (:meth:`aim_of_study`)."""
-        rows, cols = self.mosaic or (cfg.rows, cfg.cols)
+        target (the tiles that span its fields of view, overlapping as the station will:
+        :meth:`SphericalMosaic.tiles`), else the configured one; the configured reduction,
+        profile and settings; the aim of study (:meth:`aim_of_study`)."""
+        profile = cfg.profile if req.profile is None else req.profile
+        overlap = _overlap(profile, cfg.overlap)
+        rows, cols = cfg.rows, cfg.cols
+        if self.mosaic is not None:
+            rows, cols = (SphericalMosaic.tiles(n, overlap) for n in self.mosaic)
         return replace(
             req,
             rows=rows if req.rows is None else req.rows,
             cols=cols if req.cols is None else req.cols,
             downsample=cfg.downsample if req.downsample is None else req.downsample,
-            profile=cfg.profile if req.profile is None else req.profile,
+            profile=profile,
             settings=cfg.settings if req.settings is None else req.settings,
             aim=self.aim_of_study(cfg) if req.aim is None else req.aim,
         )
@@ -173,14 +185,13 @@ class Approach:
         overlap: float = 0.0,
     ) -> MosaicGeometry:
         """The mosaic a completed ``req`` shoots through ``camera``, its frames overlapping
-        by ``overlap`` (but butted for the ``paper`` profile, the seed's choice). Its centre
-        is always a decision: asked for, aimed at, else ``centre`` (surveyed before, or set
-        up)."""
+        by ``overlap`` (:func:`_overlap`). Its centre is always a decision: asked
+        for, aimed at, else ``centre`` (surveyed before, or set up)."""
         default = self.aim or centre
         pan0 = req.pan0 if req.pan0 is not None else default[0]
         tilt0 = req.tilt0 if req.tilt0 is not None else default[1]
         butted = MosaicGeometry(camera, req.rows, req.cols, pan0, tilt0, req.downsample)
-        return butted.overlapping(0.0 if req.profile == "paper" else overlap)
+        return butted.overlapping(_overlap(req.profile, overlap))
 
     def previous(self, cfg: SurveyConfig) -> Previous | None:
         """The station this leg was aimed from; None for a first station or an unaimed one."""
@@ -210,9 +221,10 @@ class Approach:
         self, point: InterestPoint, ratio: float, cfg: SurveyConfig, base: CameraModel
     ) -> tuple[tuple[int, int], dict[str, Any]]:
         """The next station's mosaic from the target's size: three target diameters each
-        way (the target and its setting), at most the configured mosaic; and the distance
-        at which it would fill a third of the widest view (the seed's missing foresight
-        in where to stand)."""
+        way (the target and its setting), in fields of view, at most the configured mosaic's
+        (an overlapping station shoots more tiles to span them: :meth:`complete`); and the
+        distance at which it would fill a third of the widest view (the seed's missing
+        foresight in where to stand)."""
         if not point.radius_deg:
             return (cfg.rows, cfg.cols), {"rows": cfg.rows, "cols": cfg.cols}
         camera = self.camera(cfg, base)  # at the next leg: narrower if the approach zooms

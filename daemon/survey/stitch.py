@@ -1,6 +1,7 @@
 """A registered mosaic: overlapping frames projected onto one spherical canvas from the
-poses the head recorded, each pose refined on the frames placed before it, gains
-compensated and seams blended (OpenCV's ``detail`` module, as its stitching pipeline uses it).
+poses the head recorded, each pose refined on the frames placed before it, the lens's
+vignetting measured on the overlaps and divided out, gains compensated and seams blended
+(OpenCV's ``detail`` module, as its stitching pipeline uses it).
 
 Registration is seeded by the pose and only ever corrects it: a frame is moved by the ECC
 translation that best aligns it with its already placed neighbours on their overlap, and
@@ -57,6 +58,17 @@ _SEAM_EDGE = 4.0
 _SEAM_REACH = 6.0
 """Sigma (mosaic pixels) over which an edge makes a seam costly: a small feature's whole
 body, not only its outline."""
+_FLAT_SHADE = 2.0
+"""Sigma (mosaic pixels) of the smoothing of the levels the vignetting is measured on: sensor
+noise and the residual misregistration of fine grain averaged out, the lens's falloff kept."""
+_FLAT_MIN_PIXELS = 500
+"""Fewest overlap pixels (all pairs) worth measuring a vignetting on."""
+_FLAT_FLOOR = 0.5
+"""Darkest corner a measured vignetting may have; a fit darker than that is rejected (a
+cliff's shading rather than the lens's)."""
+_FLAT_CEILING = 1.02
+"""Brightest a measured falloff may make any part of a frame relative to its centre: a lens
+does not brighten its corners, a fit does only by noise or the cliff's shading."""
 _ECC = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 60, 1e-4)
 
 
@@ -124,10 +136,13 @@ class Stitcher:
         min_confidence: float = MIN_CONFIDENCE,
         *,
         register: bool = True,
+        flatten: bool = True,
     ) -> None:
-        """``register`` false places every frame by its pose alone."""
+        """``register`` false places every frame by its pose alone; ``flatten`` false
+        composes the frames as shot, their vignetting left in."""
         self.geometry = geometry
         self.register = register
+        self.flatten = flatten
         self.max_correction_deg = max_correction_deg
         self.min_confidence = min_confidence
         cam, (tw, th) = geometry.camera, geometry.tile_size
@@ -142,6 +157,9 @@ class Stitcher:
         """The seam cost image (:func:`_seam_cost`) of the tile each pixel shows."""
         self.tiles: list[tuple[np.ndarray, TileFit]] = []
         self._warped: list[_Warped] = []
+        self.vignetting: np.ndarray | None = None
+        """The lens's falloff :meth:`compose` measured on the overlaps and divided out of
+        every frame ((tile rows, cols) float32, 1 at the centre), None if not measured."""
         self.owners = np.full((height, width), -1, np.int16)
         """Which tile (its index in :attr:`tiles`) each mosaic pixel shows (-1: none): the
         seams are where it changes; pixels no frame covers stay -1 once composed."""
@@ -273,14 +291,22 @@ class Stitcher:
         self._shown[cr, cc][mine] = cost[mine]
 
     def compose(self) -> np.ndarray:
-        """The mosaic: every frame from its placed pose, gains compensated, seams found and
-        blended; black where no frame reaches. Shape ``(height, width, 3)`` uint8.
-        :attr:`owners` then says which tile (its index in :attr:`tiles`) each pixel shows,
-        -1 for none: the seams are where it changes."""
+        """The mosaic: every frame from its placed pose, flat-fielded (:attr:`vignetting`),
+        gains compensated, seams found and blended; black where no frame reaches. Shape
+        ``(height, width, 3)`` uint8. :attr:`owners` then says which tile (its index in
+        :attr:`tiles`) each pixel shows, -1 for none: the seams are where it changes."""
         width, height = self.geometry.size
         if not self.tiles:
             return np.zeros((height, width, 3), np.uint8)
         warped = self._warped
+        if self.flatten:
+            self.vignetting = self._measure_vignetting()
+        if self.vignetting is not None:
+            flat = self.vignetting[..., None]
+            warped = [
+                self._warp(np.clip(small / flat + 0.5, 0, 255).astype(np.uint8), fit.placed)
+                for small, fit in self.tiles
+            ]
         compensator = cv2.detail.BlocksGainCompensator()
         compensator.feed(
             corners=[w.corner for w in warped],
@@ -302,6 +328,57 @@ class Stitcher:
         mosaic[result_mask == 0] = 0
         self.owners[result_mask == 0] = -1
         return mosaic
+
+    def _measure_vignetting(self) -> np.ndarray | None:
+        """The lens's falloff as the overlaps show it, or None: a point of the world seen by
+        two frames at different distances from their centres differs in level by their gains
+        and by the falloff between those distances, whatever the rock there is. Least
+        squares on the log levels of every overlapping pair fits each frame's gain and a
+        falloff ``exp(a r^2 + b r^4)`` (r: distance from the centre over the half diagonal),
+        the photometric model panorama tools calibrate. Left in, the falloff is a step at
+        every seam (a frame's dark edge against its neighbour's bright middle) that gains,
+        one per frame or block, cannot take off."""
+        (tw, th), n = self.geometry.tile_size, len(self.tiles)
+        yy, xx = np.mgrid[0:th, 0:tw].astype(np.float32)
+        r2 = ((xx - (tw - 1) / 2) ** 2 + (yy - (th - 1) / 2) ** 2) / (0.25 * (tw * tw + th * th))
+        levels, radii = [], []
+        for (_, fit), w in zip(self.tiles, self._warped, strict=True):
+            grey = cv2.cvtColor(w.image, cv2.COLOR_BGR2GRAY).astype(np.float32)
+            grey = cv2.GaussianBlur(grey, (0, 0), _FLAT_SHADE)
+            inner = cv2.erode(w.mask, np.ones((7, 7), np.uint8)) > 0
+            levels.append(np.where(inner & (grey > 8) & (grey < 250), grey, 0))
+            _, warped_r2 = self._warper.warp(
+                r2, self._k, rotation(*fit.placed), cv2.INTER_LINEAR, cv2.BORDER_CONSTANT
+            )
+            radii.append(warped_r2)
+        rows, rhs = [], []
+        for k in range(n):
+            for m in range(k + 1, n):
+                a, b = self._warped[k].corner, self._warped[m].corner
+                (hk, wk), (hm, wm) = levels[k].shape, levels[m].shape
+                x0, y0 = max(a[0], b[0]), max(a[1], b[1])
+                x1, y1 = min(a[0] + wk, b[0] + wm), min(a[1] + hk, b[1] + hm)
+                if x0 >= x1 or y0 >= y1:
+                    continue
+                sk = np.s_[y0 - a[1] : y1 - a[1], x0 - a[0] : x1 - a[0]]
+                sm = np.s_[y0 - b[1] : y1 - b[1], x0 - b[0] : x1 - b[0]]
+                both = (levels[k][sk] > 0) & (levels[m][sm] > 0)
+                if not both.any():
+                    continue
+                rk, rm = radii[k][sk][both], radii[m][sm][both]
+                gains = np.zeros((rk.size, n))
+                gains[:, k], gains[:, m] = 1.0, -1.0  # the first tile's gain is the unit
+                rows.append(np.column_stack([gains[:, 1:], rk - rm, rk * rk - rm * rm]))
+                rhs.append(np.log(levels[k][sk][both]) - np.log(levels[m][sm][both]))
+        if not rows or sum(len(r) for r in rhs) < _FLAT_MIN_PIXELS:
+            return None
+        solution, *_ = np.linalg.lstsq(np.concatenate(rows), np.concatenate(rhs), rcond=None)
+        a, b = solution[-2:]
+        falloff = np.exp(a * r2 + b * r2 * r2).astype(np.float32)
+        if float(falloff.min()) < _FLAT_FLOOR or float(falloff.max()) > _FLAT_CEILING:
+            _LOGGER.info("vignetting fit rejected (a %.3f, b %.3f): frames composed as shot", a, b)
+            return None
+        return falloff
 
 
 def _ecc(template: np.ndarray, moving: np.ndarray, mask: np.ndarray) -> tuple[float, np.ndarray]:

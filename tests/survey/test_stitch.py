@@ -12,6 +12,7 @@ import pytest
 
 from cyborg.daemon.camera.simulated import PAN, TILT, Imperfections, Panorama, SimulatedCamera
 from cyborg.daemon.pointing.geometry import CameraModel, SphericalMosaic, angles_to_pixel
+from cyborg.daemon.sim.camera_effects import vignette
 from cyborg.daemon.survey.stitch import Stitcher
 from cyborg.daemon.vision.nodata import no_data_mask
 
@@ -129,3 +130,23 @@ async def test_seams_keep_off_a_ledge_in_the_overlap() -> None:
     near = np.abs(tilt) < 0.6 + 3 * g.degrees_per_pixel
     assert across.sum() > g.size[0]  # the rows do meet along a seam
     assert across[near].sum() < 0.2 * across.sum()
+
+
+@pytest.mark.parametrize("corner", [0.0, 0.25])
+async def test_the_lens_falloff_is_measured_on_the_overlaps_and_divided_out(
+    corner: float,
+) -> None:
+    """Frames of a camera whose corners are ``corner`` darker, its exposure drifting between
+    frames: the falloff the overlaps show is the lens's, whatever the rock and the gains,
+    and none is invented for a lens without one."""
+    flaws = Imperfections(vignetting=corner, ae_lag=0.5, ae_walk=0.03)
+    camera = SimulatedCamera.from_url("sim://outcrop?seed=4&noise=2")
+    camera = SimulatedCamera(camera.panorama, CAM, noise=2.0, seed=4, imperfections=flaws)
+    g = SphericalMosaic(CAM, 2, 3, 0.0, 0.0, 4.0, overlap=0.3)
+    stitcher, mosaic = await _stitch(camera, g, _errors(6, 6))
+    assert mosaic.any()
+    measured = stitcher.vignetting
+    if measured is None:  # a fit brightening the corners is rejected
+        assert corner == 0.0
+    else:
+        assert np.abs(measured - vignette(*measured.shape, corner)).max() < 0.03
