@@ -54,6 +54,12 @@ def _refine(grid: np.ndarray, r: int, c: int) -> tuple[float, float]:
     return r + dy, c + dx
 
 
+_FLAT = 1e-4
+"""A map whose highest cell stands less than this above its lowest is flat: float rounding
+in the filters (a black row gave line rarity of 1e-6 once OpenCV ran its own code instead of
+IPP's), not contrast; a real image's maps span whole units."""
+
+
 def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     """Pick the ``top_n`` highest peaks, each at least ``separation`` from the others and,
     with ``valley`` > 0, on a patch of its own.
@@ -98,7 +104,7 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     local = cv2.dilate(grid, np.ones((2 * d + 1, 2 * d + 1), np.uint8))
     floor = float(grid.min())
     span = float(grid.max()) - floor
-    if span <= 1e-6:
+    if span <= _FLAT:
         return []
     peak = (grid >= local) & (grid > max(floor + 1e-3 * span, 0.0))
     rows, cols = np.nonzero(peak)
