@@ -106,7 +106,8 @@ async def station_chips(
             rig.note(await ptu.position())
             station = archive.new_station(session, 1, 300.0)
             shots = Acquisition(rig, 0.0, {"predicted_motion_s": 0.0, "grab_s": 0.0}, _quiet)
-            mosaic = await shots.tiles(station, geometry, 0.0)
+            mosaic, rest = await shots.tiles(station, geometry, 0.0)
+            rest()  # the last tile and the mosaic archived
             truth = _Truth(geometry, station.manifest["tiles"], looked, flaws)
             width, height = geometry.size
             points = []

@@ -26,7 +26,8 @@ Scoring, as the data's README states it. Each method returns its top 3 points, b
   swing the ratios (wall-time ratios moved by 25 % under load); ``speed:`` gives
   ``default``'s over RX's and colour rarity's.
 
-Rates are per set (marsdata also per Rock-A / Rock-B tag; every extra ``masks_<x>`` folder,
+Rates are per set (marsdata also per Rock-A / Rock-B tag, magnetic_tile per defect class
+(MT_Blowhole, MT_Break, ...); every extra ``masks_<x>`` folder,
 i.e. cwfid's weed-only masks, as an extra row ``<set>-<x>``) and pooled over all images
 (every image counts once, not a mean of set means).
 
@@ -85,8 +86,9 @@ from cyborg.daemon.vision.threads import single_thread
 from cyborg.protocol.settings import add_settings_argument
 
 SET_ORDER = ("marsdata", "cwfid", "crackforest", "magnetic_tile", "ai4mars")
-TAG_SETS = frozenset({"marsdata"})
-"""Sets also reported per manifest tag (the others' tags are provenance, not subsets)."""
+TAG_SETS = frozenset({"marsdata", "magnetic_tile"})
+"""Sets also reported per manifest tag: marsdata's rock kinds, magnetic tiles' defect classes
+(the others' tags are provenance, not subsets)."""
 BASELINES = ("spectral-residual", "colour-rarity", "rx-anomaly", "random")
 RATES = ("top1", "any3", "p3", "repeat1", "ms")
 GOAL_MARGIN, GOAL_SET_DEFICIT, GOAL_REPEAT = 0.10, 0.05, 0.90

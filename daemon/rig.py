@@ -91,6 +91,15 @@ class Rig:
             return frame
         return dataclasses.replace(frame, pose=(reported.pan, reported.tilt))
 
+    def landing(self, pan: float, tilt: float) -> tuple[float, float]:
+        """The pose the head will report once a move to (pan, tilt) ends: the nearest step
+        (what can be prepared for that pose can be, before it stands there)."""
+        info = self.ptu.info
+        return (
+            info.pan.to_degrees(info.pan.to_positions(pan)),
+            info.tilt.to_degrees(info.tilt.to_positions(tilt)),
+        )
+
     async def move_to(self, pan: float, tilt: float) -> PtuPosition:
         """Move and wait until the head stands still; the pose cache follows."""
         await self.ptu.move_to(pan, tilt, wait=False)

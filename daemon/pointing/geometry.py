@@ -209,15 +209,9 @@ class MosaicGeometry:
         w, h = self.tile_size
         return w * self.cols, h * self.rows
 
-    def _steps(self) -> tuple[float, float]:
-        """(pan, tilt) degrees between neighbouring tiles unless the plan set them: a field
-        of view, butted."""
-        return self.camera.hfov, self.camera.vfov
-
     def tile_pose(self, row: int, col: int) -> tuple[float, float]:
-        fov_pan, fov_tilt = self._steps()
-        sp = self.step_pan if self.step_pan is not None else fov_pan
-        st = self.step_tilt if self.step_tilt is not None else fov_tilt
+        sp = self.step_pan if self.step_pan is not None else self.camera.hfov
+        st = self.step_tilt if self.step_tilt is not None else self.camera.vfov
         return (
             self.pan0 + (col - (self.cols - 1) / 2.0) * sp,
             self.tilt0 - (row - (self.rows - 1) / 2.0) * st,
@@ -283,24 +277,42 @@ class MosaicGeometry:
         """The geometry an archived ``plan`` describes (a :class:`SphericalMosaic` if it
         overlaps); KeyError or TypeError if it is not one."""
         cam = plan["camera"]
-        return MosaicGeometry(
+        butted = MosaicGeometry(
             CameraModel(cam["width"], cam["height"], cam["hfov"]),
             plan["rows"],
             plan["cols"],
             plan["pan0"],
             plan["tilt0"],
             plan["downsample"],
-        ).overlapping(plan.get("overlap", 0.0))
+        )
+        steps = plan.get("steps") or (None, None)  # a plan archived before per-axis steps
+        return butted.overlapping(plan.get("overlap", 0.0), steps=tuple(steps))
 
-    def overlapping(self, overlap: float) -> MosaicGeometry:
+    def overlapping(
+        self,
+        overlap: float,
+        *,
+        spans: tuple[int | None, int | None] = (None, None),
+        steps: tuple[float | None, float | None] = (None, None),
+    ) -> MosaicGeometry:
         """This plan with frames overlapping by ``overlap`` of a field of view, projected
-        (:class:`SphericalMosaic`); 0 keeps them butted, the seed's way.
+        (:class:`SphericalMosaic`); 0 keeps them butted, the seed's way. Per axis (pan,
+        tilt): the ``spans`` given are the butted fields of view this plan's tiles stretch
+        across, evenly (:meth:`SphericalMosaic.spread`), so each overlaps by at least
+        ``overlap``; the ``steps`` given (degrees) are the steps; neither, ``1 - overlap``
+        of a field.
 
-        >>> type(MosaicGeometry(CameraModel(), 2, 3).overlapping(0.3)).__name__
-        'SphericalMosaic'
+        >>> g = MosaicGeometry(CameraModel(), 3, 4).overlapping(0.3, spans=(3, 2))
+        >>> type(g).__name__, round(g.step_pan / 30, 3), round(g.step_tilt / g.camera.vfov, 3)
+        ('SphericalMosaic', 0.667, 0.5)
         """
         if overlap == 0.0:
             return self
+        fovs, tiles = (self.camera.hfov, self.camera.vfov), (self.cols, self.rows)
+        step_pan, step_tilt = (
+            step if step is not None else SphericalMosaic.spread(span, n, fov, overlap)
+            for step, span, n, fov in zip(steps, spans, tiles, fovs, strict=True)
+        )
         return SphericalMosaic(
             self.camera,
             self.rows,
@@ -308,6 +320,8 @@ class MosaicGeometry:
             self.pan0,
             self.tilt0,
             self.downsample,
+            step_pan,
+            step_tilt,
             overlap=overlap,
         )
 
@@ -386,9 +400,11 @@ Through a 30° lens (24° tall) the margin stays 0.5°."""
 
 @dataclass(frozen=True)
 class SphericalMosaic(MosaicGeometry):
-    """An M×N mosaic of frames overlapping by ``overlap`` of a field of view, projected onto
-    one equirectangular (spherical) canvas: mosaic column ↔ pan and row ↔ tilt, linearly,
-    at the reduced tile's resolution at its centre (``daemon.survey.stitch`` paints it).
+    """An M×N mosaic of frames overlapping by ``overlap`` of a field of view (at least: the
+    steps, ``1 - overlap`` of a field unless set, may be shorter to span a butted plan's
+    field, :meth:`spread`), projected onto one equirectangular (spherical) canvas: mosaic
+    column ↔ pan and row ↔ tilt, linearly, at the reduced tile's resolution at its centre
+    (``daemon.survey.stitch`` paints it).
 
     Pixel index (j, i) samples pan ``(u0 + j) / scale`` and ``π/2 - tilt`` ``(v0 + i) /
     scale`` radians, (u0, v0) being :attr:`origin`: OpenCV's spherical warper's
@@ -405,6 +421,26 @@ class SphericalMosaic(MosaicGeometry):
     def __post_init__(self) -> None:
         if not 0.0 < self.overlap <= 0.5:
             raise ValueError(f"overlap must be in (0, 0.5], got {self.overlap!r}")
+        keep = 1.0 - self.overlap  # steps not set: 1 - overlap of a field, the plan records them
+        if self.step_pan is None:
+            object.__setattr__(self, "step_pan", self.camera.hfov * keep)
+        if self.step_tilt is None:
+            object.__setattr__(self, "step_tilt", self.camera.vfov * keep)
+
+    @staticmethod
+    def spread(span: int | None, tiles: int, fov: float, overlap: float) -> float:
+        """Degrees between ``tiles`` frames of ``fov`` degrees stretched evenly across the
+        ``span`` fields of view as many butted frames cover; ``1 - overlap`` of a field
+        without a span (or with one tile). ``tiles`` = :meth:`tiles` of the span keeps every
+        overlap at least ``overlap``: at 0.3 a 2×3 field takes 3×4 tiles, 0.5 and 0.67 of a
+        field apart, where 2×3 tiles 0.7 apart spanned 1.7×2.4 fields.
+
+        >>> SphericalMosaic.spread(3, 4, 30.0, 0.3), SphericalMosaic.spread(None, 3, 30.0, 0.3)
+        (20.0, 21.0)
+        """
+        if span is None or tiles < 2:
+            return fov * (1.0 - overlap)
+        return fov * (span - 1) / (tiles - 1)
 
     @staticmethod
     def tiles(fields: int, overlap: float) -> int:
@@ -418,10 +454,6 @@ class SphericalMosaic(MosaicGeometry):
         ([1, 3, 4], 3)
         """
         return 1 + math.ceil(round((fields - 1) / (1.0 - overlap), 9))
-
-    def _steps(self) -> tuple[float, float]:
-        keep = 1.0 - self.overlap
-        return self.camera.hfov * keep, self.camera.vfov * keep
 
     @property
     def scale(self) -> float:
@@ -473,13 +505,18 @@ class SphericalMosaic(MosaicGeometry):
         return math.degrees(1.0 / self.scale)
 
     def to_plan(self, **extra: Any) -> dict[str, Any]:
-        """:meth:`MosaicGeometry.to_plan` plus the overlap and the projection.
+        """:meth:`MosaicGeometry.to_plan` plus the overlap, the (pan, tilt) steps between
+        tiles (degrees) and the projection.
 
         >>> g = SphericalMosaic(CameraModel(360, 288, 30.0), 2, 3, 5.0, -1.0, 4.0, overlap=0.25)
         >>> MosaicGeometry.from_plan(g.to_plan(profile="default")) == g
         True
         """
-        return super().to_plan(**extra) | {"overlap": self.overlap, "projection": "spherical"}
+        return super().to_plan(**extra) | {
+            "overlap": self.overlap,
+            "steps": [self.step_pan, self.step_tilt],
+            "projection": "spherical",
+        }
 
     def to_angles(self, mx: float, my: float) -> tuple[float, float]:
         """World (pan, tilt) of a mosaic pixel (continuous, pixel k's centre at k + 0.5).

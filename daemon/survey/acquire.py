@@ -2,10 +2,11 @@
 
 Tiles are shot in serpentine order, each reduced, placed in the mosaic (butted, or
 registered on the tiles before it, warped and its seams cut when they overlap: ``stitch``)
-and archived while the head already moves to the next; only an overlapping mosaic's gains
-and blending wait for the last tile. Chips
-are full-resolution frames at the interest points, each saved and published while the head
-moves on.
+and archived while the head already moves to the next; only the last tile's placing and an
+overlapping mosaic's gains and blending wait for the last tile, its archiving and the
+mosaic's are left to run while the mosaic is analysed. Chips are full-resolution frames at
+the interest points: the mosaic is warped to the view each should show while the head is on
+its way (``refine.expect``), and each is saved and published while the head moves on.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numpy as np
@@ -28,7 +30,7 @@ from ..pointing.geometry import MosaicGeometry, SphericalMosaic
 from ..ptu import PtuInfo, PtuLimitError, PtuPosition
 from ..rig import Rig
 from ..vision.imageio import encode_image
-from .refine import Centring, approach, measure
+from .refine import Centring, View, approach, expect
 from .stitch import Stitcher
 
 __all__ = ["CHIPS", "Acquisition", "check_reach"]
@@ -80,19 +82,25 @@ class Acquisition:
 
     async def tiles(
         self, station: Station, geometry: MosaicGeometry, analysis_s: float
-    ) -> np.ndarray:
-        """Shoot, place and archive every tile, then the mosaic; ``analysis_s`` (the last
-        analysis's duration) goes into the time left announced."""
+    ) -> tuple[np.ndarray, Callable[[], None]]:
+        """Shoot, place and archive every tile; the mosaic, and what is left to archive (the
+        last tile and the mosaic, fsynced and listed) for the caller to run, in a thread,
+        while the mosaic is analysed. ``analysis_s`` (the last analysis's duration) goes into
+        the time left announced."""
         width, height = geometry.size
         mosaic = np.zeros((height, width, 3), np.uint8)
         order = geometry.serpentine()
         ptu = self.rig.ptu
         stitcher = Stitcher(geometry) if isinstance(geometry, SphericalMosaic) else None
-        place: Callable[[_Pending], None] = (
-            functools.partial(_register, station, stitcher)
+        put: Callable[[_Pending], dict[str, Any]] = (
+            functools.partial(_register, stitcher)
             if stitcher is not None
-            else functools.partial(_place, station, mosaic, geometry.tile_size)
+            else functools.partial(_place, mosaic, geometry.tile_size)
         )
+
+        def place(job: _Pending) -> None:
+            _archive(station, job, put(job))
+
         pending: _Pending | None = None
         t0 = time.perf_counter()
         try:
@@ -113,14 +121,25 @@ class Acquisition:
             if pending is not None:  # a frame already taken is kept
                 place(pending)
             raise
-        if pending is not None:
-            await asyncio.to_thread(place, pending)
-        if stitcher is not None:
-            tc = time.perf_counter()
-            mosaic = await asyncio.to_thread(stitcher.compose)
-            self.timing["compose_s"] = time.perf_counter() - tc
-        await asyncio.to_thread(station.write_png, "mosaic.png", mosaic)
-        return mosaic
+        last, fields = pending, dict[str, Any]()
+        try:
+            if last is not None:
+                fields = await asyncio.to_thread(put, last)
+            if stitcher is not None:
+                tc = time.perf_counter()
+                mosaic = await asyncio.to_thread(stitcher.compose)
+                self.timing["compose_s"] = time.perf_counter() - tc
+        except asyncio.CancelledError:
+            if last is not None:
+                _archive(station, last, fields)
+            raise
+
+        def rest() -> None:
+            if last is not None:
+                _archive(station, last, fields)
+            station.write_png("mosaic.png", mosaic)
+
+        return mosaic, rest
 
     async def chips(
         self,
@@ -142,18 +161,23 @@ class Acquisition:
         saving: asyncio.Task[Chip] | None = None
         for k, point in enumerate(chosen):
             self.progress("chips", k, len(chosen))
-            came_from = self.rig.pose
-            self.timing["predicted_motion_s"] += ptu.predict_move_time(point.pan, point.tilt)
-            await ptu.move_to(point.pan, point.tilt, wait=False)
+            came_from, target = self.rig.pose, (point.pan, point.tilt)
+            self.timing["predicted_motion_s"] += ptu.predict_move_time(*target)
+            await ptu.move_to(*target, wait=False)
             self.rig.mark_moving()
-            if saving is not None:
-                publish(await saving)
-            position, frame = await self._settle_and_grab()
-            centring: dict[str, object] = {}
-            if reference is not None:
-                position, frame, centring = await self._centre(
-                    point, came_from, position, frame, reference
-                )
+            view = None if reference is None else self._expect(target, target, reference)
+            try:
+                if saving is not None:
+                    publish(await saving)
+                position, frame = await self._settle_and_grab()
+                centring: dict[str, object] = {}
+                if reference is not None and view is not None:
+                    position, frame, centring = await self._centre(
+                        point, came_from, position, frame, reference=reference, view=view
+                    )
+            finally:
+                if view is not None:
+                    view.cancel()
             saving = asyncio.create_task(
                 asyncio.to_thread(
                     _save_chip,
@@ -170,24 +194,37 @@ class Acquisition:
             publish(await saving)
         self.progress("chips", len(chosen), len(chosen))
 
+    def _expect(
+        self,
+        goal: tuple[float, float],
+        target: tuple[float, float],
+        reference: tuple[np.ndarray, MosaicGeometry],
+    ) -> asyncio.Task[View | None]:
+        """Warp the mosaic to what a chip of ``target`` should show from where the head
+        lands for ``goal``, while it is on its way there (``refine.expect``)."""
+        pose, size = self.rig.landing(*goal), self.rig.camera.resolution
+        return asyncio.create_task(
+            asyncio.to_thread(expect, pose, target, size, *reference),
+            name="cyborgd.survey.expect",
+        )
+
     async def _centre(
         self,
         point: InterestPoint,
         came_from: PtuPosition,
         position: PtuPosition,
         frame: Frame,
+        *,
         reference: tuple[np.ndarray, MosaicGeometry],
+        view: asyncio.Task[View | None],
     ) -> tuple[PtuPosition, Frame, dict[str, object]]:
-        """Measure a chip's centring on the mosaic; correct the head once and retake it if
-        it is off, arriving from the side it came from (backlash). The chip kept, and its
-        record: ``before_deg``, ``after_deg`` (the kept chip's; None: not measurable),
-        ``confidence``, ``uncertainty_deg`` (of ``before_deg``), ``corrected``."""
+        """Measure a chip's centring on the mosaic (``view``: the mosaic warped to where the
+        head was to land); correct the head once and retake it if it is off, arriving from
+        the side it came from (backlash). The chip kept, and its record: ``before_deg``,
+        ``after_deg`` (the kept chip's; None: not measurable), ``confidence``,
+        ``uncertainty_deg`` (of ``before_deg``), ``corrected``."""
         target = (point.pan, point.tilt)
-
-        def centring(position: PtuPosition, frame: Frame) -> Centring | None:
-            return measure(frame.image, (position.pan, position.tilt), target, *reference)
-
-        before = await asyncio.to_thread(centring, position, frame)
+        before = await _measure(await view, position, frame, target, reference)
         error = None if before is None else round(before.error, 4)
         record: dict[str, object] = {"before_deg": error, "after_deg": error, "corrected": False}
         record["confidence"] = 0.0 if before is None else round(before.confidence, 3)
@@ -197,34 +234,59 @@ class Acquisition:
         here = (position.pan, position.tilt)
         goal = (here[0] + before.offset[0], here[1] + before.offset[1])
         ptu = self.rig.ptu
+        view = self._expect(goal, target, reference)
         try:
             for pan, tilt in approach(here, (came_from.pan, came_from.tilt), goal):
                 self.timing["predicted_motion_s"] += ptu.predict_move_time(pan, tilt)
                 await self.rig.move_to(pan, tilt)
+            position, frame = await self._settle_and_grab()
+            after = await _measure(await view, position, frame, target, reference)
         except PtuLimitError as exc:  # the chip already taken stands
             _LOGGER.info("chip %d not corrected: %s", point.rank, exc)
             return position, frame, record
-        position, frame = await self._settle_and_grab()
-        after = await asyncio.to_thread(centring, position, frame)
+        finally:
+            view.cancel()
         record.update(corrected=True, after_deg=None if after is None else round(after.error, 4))
         return position, frame, record
 
 
-def _place(station: Station, mosaic: np.ndarray, tile: tuple[int, int], pending: _Pending) -> None:
-    row, col, frame, (pan, tilt) = pending
+async def _measure(
+    view: View | None,
+    position: PtuPosition,
+    frame: Frame,
+    target: tuple[float, float],
+    reference: tuple[np.ndarray, MosaicGeometry],
+) -> Centring | None:
+    """``frame``'s centring on ``view``, or on a view made anew if the head reported
+    another pose than the one it was to land at (a stall, a mechanical stop) or the frame is
+    of another size."""
+    pose = (position.pan, position.tilt)
+    height, width = frame.image.shape[:2]
+    if view is None or view.pose != pose or view.size != (width, height):
+        view = await asyncio.to_thread(expect, pose, target, (width, height), *reference)
+    return None if view is None else await asyncio.to_thread(view.measure, frame.image)
+
+
+def _place(mosaic: np.ndarray, tile: tuple[int, int], pending: _Pending) -> dict[str, Any]:
+    """Reduce a tile into its slot of a butted mosaic; nothing to add to its record."""
+    row, col, frame, _ = pending
     tw, th = tile
-    image = frame.image
-    small = cv2.resize(image, (tw, th), interpolation=cv2.INTER_AREA)
+    small = cv2.resize(frame.image, (tw, th), interpolation=cv2.INTER_AREA)
     mosaic[row * th : (row + 1) * th, col * tw : (col + 1) * tw] = small
-    station.add_tile(row, col, image, (pan, tilt), frame.timestamp)
+    return {}
 
 
-def _register(station: Station, stitcher: Stitcher, pending: _Pending) -> None:
-    """Register a tile on those placed before it, warp it and cut its seams with them;
-    archive it with its correction."""
+def _register(stitcher: Stitcher, pending: _Pending) -> dict[str, Any]:
+    """Register a tile on those placed before it, warp it and cut its seams with them; its
+    correction, for its record."""
     row, col, frame, pose = pending
-    fit = stitcher.add(row, col, frame.image, pose)
-    station.add_tile(row, col, frame.image, pose, frame.timestamp, registration=fit.record())
+    return {"registration": stitcher.add(row, col, frame.image, pose).record()}
+
+
+def _archive(station: Station, pending: _Pending, fields: dict[str, Any]) -> None:
+    """Archive a tile as shot and list it, with ``fields``."""
+    row, col, frame, pose = pending
+    station.add_tile(row, col, frame.image, pose, frame.timestamp, **fields)
 
 
 def _save_chip(

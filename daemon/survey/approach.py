@@ -110,6 +110,11 @@ class Approach:
     more overlapping ones (:meth:`complete`)."""
     sought: str = ""
     """The aim of study (``protocol.aims``) the session's last station asked for."""
+    spans: tuple[int | None, int | None] = (None, None)
+    """(pan, tilt) fields of view the last completed request's tiles are stretched across:
+    an unaimed station's configured cols and rows, exactly as butted; None on an axis asked
+    for, and for an aimed station, whose tiles step ``1 - overlap`` and so span a little more
+    than its fitted fields (as measured on ``bench.approach``) (:meth:`complete`)."""
 
     def distance(self, cfg: SurveyConfig) -> float:
         return cfg.approach[self.leg]
@@ -158,15 +163,19 @@ class Approach:
         return self.sought or cfg.aim
 
     def complete(self, req: SurveyStart, cfg: SurveyConfig) -> SurveyStart:
-        """``req`` with what it leaves open filled in: the mosaic fitted to the aimed
-        target (the tiles that span its fields of view, overlapping as the station will:
-        :meth:`SphericalMosaic.tiles`), else the configured one; the configured reduction,
-        profile and settings; the aim of study (:meth:`aim_of_study`)."""
+        """``req`` with what it leaves open filled in: the tiles that span the fields of view
+        of the mosaic fitted to the aimed target, else of the configured one, overlapping as
+        the station will (:meth:`SphericalMosaic.tiles`; :attr:`spans`);
+        the configured reduction, profile and settings; the aim of study
+        (:meth:`aim_of_study`). Rows or cols asked for are the tiles shot."""
         profile = cfg.profile if req.profile is None else req.profile
-        overlap = _overlap(profile, cfg.overlap)
-        rows, cols = cfg.rows, cfg.cols
-        if self.mosaic is not None:
-            rows, cols = (SphericalMosaic.tiles(n, overlap) for n in self.mosaic)
+        rows, cols = self.mosaic or (cfg.rows, cfg.cols)
+        spanned = self.mosaic is None
+        self.spans = (
+            cols if spanned and req.cols is None else None,
+            rows if spanned and req.rows is None else None,
+        )
+        rows, cols = _tiles((rows, cols), _overlap(profile, cfg.overlap))
         return replace(
             req,
             rows=rows if req.rows is None else req.rows,
@@ -185,13 +194,14 @@ class Approach:
         overlap: float = 0.0,
     ) -> MosaicGeometry:
         """The mosaic a completed ``req`` shoots through ``camera``, its frames overlapping
-        by ``overlap`` (:func:`_overlap`). Its centre is always a decision: asked
-        for, aimed at, else ``centre`` (surveyed before, or set up)."""
+        by ``overlap`` (:func:`_overlap`) and stretched across the fields of view they
+        stand for (:attr:`spans`). Its centre is always a decision: asked for, aimed at,
+        else ``centre`` (surveyed before, or set up)."""
         default = self.aim or centre
         pan0 = req.pan0 if req.pan0 is not None else default[0]
         tilt0 = req.tilt0 if req.tilt0 is not None else default[1]
         butted = MosaicGeometry(camera, req.rows, req.cols, pan0, tilt0, req.downsample)
-        return butted.overlapping(_overlap(req.profile, overlap))
+        return butted.overlapping(_overlap(req.profile, overlap), spans=self.spans)
 
     def previous(self, cfg: SurveyConfig) -> Previous | None:
         """The station this leg was aimed from; None for a first station or an unaimed one."""
@@ -222,11 +232,13 @@ class Approach:
     ) -> tuple[tuple[int, int], dict[str, Any]]:
         """The next station's mosaic from the target's size: three target diameters each
         way (the target and its setting), in fields of view, at most the configured mosaic's
-        (an overlapping station shoots more tiles to span them: :meth:`complete`); and the
-        distance at which it would fill a third of the widest view (the seed's missing
-        foresight in where to stand)."""
+        (an overlapping station shoots more tiles to span them, ``tiles``: :meth:`complete`);
+        and the distance at which it would fill a third of the widest view (the seed's
+        missing foresight in where to stand)."""
+        overlap = _overlap(cfg.profile, cfg.overlap)
         if not point.radius_deg:
-            return (cfg.rows, cfg.cols), {"rows": cfg.rows, "cols": cfg.cols}
+            fields = (cfg.rows, cfg.cols)
+            return fields, {"rows": cfg.rows, "cols": cfg.cols, "tiles": _tiles(fields, overlap)}
         camera = self.camera(cfg, base)  # at the next leg: narrower if the approach zooms
         across = 2 * point.radius_deg * ratio  # degrees as seen from the next station
         if self.magnification(cfg) > 1.0:  # zooming: the view narrows, the target does not grow
@@ -235,7 +247,13 @@ class Approach:
         rows = max(1, min(cfg.rows, math.ceil(3 * across / camera.vfov)))
         here = cfg.approach[self.leg - 1]
         suggested = round(here * 2 * point.radius_deg / (base.hfov / 3), 1)
-        fit = {"rows": rows, "cols": cols, "target_deg": round(across, 3), "suggested_m": suggested}
+        fit = {
+            "rows": rows,
+            "cols": cols,
+            "tiles": _tiles((rows, cols), overlap),
+            "target_deg": round(across, 3),
+            "suggested_m": suggested,
+        }
         return (rows, cols), fit
 
     async def zoom(self, cfg: SurveyConfig, camera: Camera) -> dict[str, float] | None:
@@ -247,8 +265,16 @@ class Approach:
         return {"level": round(level, 4), "seconds": round(seconds, 3)}
 
 
+def _tiles(fields: tuple[int, int], overlap: float) -> tuple[int, int]:
+    """(rows, cols) of tiles overlapping by ``overlap`` that span ``fields`` (rows, cols)
+    fields of view (:meth:`SphericalMosaic.tiles`); as many as fields when butted."""
+    rows, cols = (SphericalMosaic.tiles(n, overlap) for n in fields)
+    return rows, cols
+
+
 def advice(point: InterestPoint, fit: dict[str, Any]) -> str:
-    """What the operator hears about the next station's mosaic, for a target with a size."""
+    """What the operator hears about the next station's mosaic, for a target with a size:
+    the tiles its plan will shoot (``tiles``, as the manifest's plan will record them)."""
     if not point.radius_deg:
         return ""
     where = (
@@ -256,7 +282,9 @@ def advice(point: InterestPoint, fit: dict[str, Any]) -> str:
         if fit.get("suggested_m")
         else ""
     )
-    return (
-        f"; {2 * point.radius_deg:.2f}° across, it will span {fit['target_deg']:.1f}°: "
-        f"a {fit['rows']}×{fit['cols']} mosaic{where}"
-    )
+    (rows, cols), fields = fit["tiles"], (fit["rows"], fit["cols"])
+    shot = f"a {rows}×{cols} mosaic"
+    if (rows, cols) != fields:
+        shot += f" of overlapping frames across {fields[0]}×{fields[1]} fields of view"
+    across = f"{2 * point.radius_deg:.2f}° across, it will span {fit['target_deg']:.1f}°"
+    return f"; {across}: {shot}{where}"

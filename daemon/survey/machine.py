@@ -2,9 +2,10 @@
 
 One station: shoot an M×N mosaic of butted frames (``acquire``); register it to the station
 it was aimed from (``register``) and weigh it by what that one found (``memory``); hand it
-to the vision worker; re-point at the top three interest points for full-resolution chips;
-publish the result and wait for the operator's choice. Choosing a target aims the next
-station at it, one step closer along the approach (``approach``).
+to the vision worker; re-point at the top three interest points for full-resolution chips
+while the worker draws and writes the analysis's products; publish the result and wait for
+the operator's choice. Choosing a target aims the next station at it, one step closer along
+the approach (``approach``).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import asyncio
 import contextlib
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import TYPE_CHECKING, Any
@@ -25,7 +26,7 @@ from ..camera import CameraError
 from ..pointing.geometry import CameraModel, MosaicGeometry
 from ..ptu import PtuError
 from ..rig import Rig
-from ..vision.contract import AnalysisJob
+from ..vision.contract import AnalysisResult, PointsJob, ProductsJob
 from ..worker import VisionWorker, WorkerError
 from .acquire import Acquisition, check_reach
 from .analysis import check_profile, interest_points
@@ -34,6 +35,7 @@ from .memory import SessionMemory
 from .register import register_to
 from .report import update_report
 from .site import Orientation, locate
+from .stitch import no_data
 
 if TYPE_CHECKING:  # config imports the survey package (its site)
     from ..config import SurveyConfig
@@ -234,8 +236,9 @@ class Survey:
         timing: dict[str, float] = {"predicted_motion_s": 0.0, "grab_s": 0.0}
         shots = Acquisition(self.rig, self.cfg.settle, timing, self._progress)
         previous = self._approach.previous(self.cfg)
+        drawing: asyncio.Task[AnalysisResult] | None = None
         try:
-            mosaic = await shots.tiles(station, geometry, self._analysis_estimate)
+            mosaic, rest = await shots.tiles(station, geometry, self._analysis_estimate)
             if previous is not None:
                 reg = await asyncio.to_thread(register_to, previous, self.archive, mosaic, geometry)
                 station.update(registration=reg)
@@ -245,28 +248,36 @@ class Survey:
             )
             if memory is not None:
                 station.update(memory=memory)
-            # No await between announcing the analysis and handing it to the worker: a worker
-            # that dies after the announcement dies with this station's job in it.
-            self._progress("analysis", 0, 1)
-            job = AnalysisJob(
-                str(station.partial_dir),
-                mosaic,
-                profile,
-                "mosaic.png",
-                prior,
-                (*settings, f"aim={aim}"),
-            )
-            analysis = await self.worker.call(job)
+            async with _alongside(rest):  # the last tile and the mosaic archived meanwhile
+                # No await between announcing the analysis and handing it to the worker: a
+                # worker that dies after the announcement dies with this station's job in it.
+                self._progress("analysis", 0, 1)
+                job = PointsJob(
+                    str(station.partial_dir),
+                    mosaic,
+                    profile,
+                    "mosaic.png",
+                    prior,
+                    (*settings, f"aim={aim}"),
+                    no_data(mosaic, geometry),
+                )
+                analysed = await self.worker.call(job)
             timing["analysis_s"] = self._analysis_estimate = time.perf_counter() - ta
-            station.publish_analysis()
-            found = interest_points(analysis, geometry, self.orientation, mosaic)
+            # The worker draws and writes the products while the head goes to the chips.
+            drawing = asyncio.create_task(
+                self._products(analysed.products, timing), name="cyborgd.survey.products"
+            )
+            found = interest_points(analysed.result, geometry, self.orientation, mosaic)
             points = await asyncio.to_thread(
                 self.memory.recall, found, mosaic, geometry, previous, self.archive
             )
             bodies = [p.to_body() for p in points]
             site, range_m = station.manifest["site"], self._approach.range(self.cfg)
-            station.update(points=locate(bodies, site, range_m), products=analysis.products)
+            station.update(points=locate(bodies, site, range_m))
             await shots.chips(station, self.station_id, points, self.tel.chip, (mosaic, geometry))
+            analysis = await drawing
+            station.publish_analysis()
+            station.update(products=analysis.products)
             timing["wall_s"] = time.perf_counter() - t0
             station.update(timing=timing)
             station.finish("complete")
@@ -284,31 +295,78 @@ class Survey:
             )
         except asyncio.CancelledError as exc:
             reason = str(exc.args[0]) if exc.args else "cancelled"
-            await self._abandon(station, "incomplete", reason, timing, t0)
+            await self._abandon(station, "incomplete", reason, timing, t0, drawing=drawing)
             raise
         except (PtuError, CameraError, WorkerError, OSError, ValueError, TimeoutError) as exc:
             text = _describe(exc)
-            await self._abandon(station, "failed", text, timing, t0)
+            await self._abandon(station, "failed", text, timing, t0, drawing=drawing)
             self.tel.event("error", f"station {self.station_id} failed: {text}")
         except Exception as exc:  # a bug: fail the station, keep the daemon
             _LOGGER.exception("station %s", self.station_id)
-            await self._abandon(station, "failed", f"internal error: {exc!r}", timing, t0)
+            await self._abandon(
+                station, "failed", f"internal error: {exc!r}", timing, t0, drawing=drawing
+            )
             self.tel.event("error", f"station {self.station_id} failed: internal error {exc!r}")
 
+    async def _products(self, job: ProductsJob, timing: dict[str, float]) -> AnalysisResult:
+        """Have the worker write an analysis's products; ``products_s`` says how long."""
+        tp = time.perf_counter()
+        analysis = await self.worker.call(job)
+        timing["products_s"] = time.perf_counter() - tp
+        return analysis
+
     async def _abandon(
-        self, station: Station, status: str, reason: str, timing: dict[str, float], t0: float
+        self,
+        station: Station,
+        status: str,
+        reason: str,
+        timing: dict[str, float],
+        t0: float,
+        *,
+        drawing: asyncio.Task[AnalysisResult] | None = None,
     ) -> None:
+        """End a station short, the head halted first. Products the worker already wrote
+        are kept, as the points are; a drawing still under way is stopped (its worker
+        replaced, as a cancelled analysis's) before the partial analysis is removed."""
         self.state, self.last_error = SurveyState.IDLE, reason if status == "failed" else ""
         with contextlib.suppress(PtuError, OSError, TimeoutError):
             await asyncio.shield(self.rig.ptu.halt())
+        drawn = None if drawing is None else await _finished(drawing)
         timing["wall_s"] = time.perf_counter() - t0
         try:
+            if drawn is not None:
+                station.publish_analysis()
+                station.update(products=drawn.products)
             station.update(timing=timing)
             station.finish(status, reason)
         except OSError as exc:
             _LOGGER.error("station %s: cannot update the manifest: %s", station.name, exc)
         await asyncio.shield(update_report(station))
         self._progress(status, 0, 0, None)
+
+
+@contextlib.asynccontextmanager
+async def _alongside(work: Callable[[], None]) -> AsyncIterator[None]:
+    """Run ``work`` (archive writes) in a thread while the body runs, and leave only once it
+    is done, whatever ends the body: the manifest has one writer at a time. Its error is
+    raised if the body's is none."""
+    task = asyncio.ensure_future(asyncio.to_thread(work))
+    try:
+        yield
+    finally:
+        await asyncio.wait([task])
+        error = task.exception()
+    if error is not None:
+        raise error
+
+
+async def _finished(task: asyncio.Task[AnalysisResult]) -> AnalysisResult | None:
+    """The task's result if it had finished; else it is stopped now (None)."""
+    task.cancel()
+    await asyncio.wait([task])
+    if task.cancelled() or task.exception() is not None:
+        return None
+    return task.result()
 
 
 def _describe(exc: BaseException) -> str:

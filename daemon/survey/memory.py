@@ -30,6 +30,12 @@ the seed's proposal): its interest map, carried into the new mosaic's frame by t
 prediction registration uses, and a neighbourhood around the chosen target weigh the new
 station's interest, so what was judged common from afar is de-emphasised and the target's
 surroundings favoured.
+
+No-data is nothing seen. What no frame of a registered (stitched) mosaic covers, exactly
+black there (``stitch.uncovered``), is no colour of the palette, no part of a patch's core or
+surround, and carried into a closer station as ground the earlier one did not see (weighed as
+new), not as the level the science scored it at. A butted mosaic's black is left as image:
+there it may be a shadow the camera crushed.
 """
 
 from __future__ import annotations
@@ -45,9 +51,10 @@ import numpy as np
 from cyborg.protocol.messages import InterestPoint
 
 from ..archive import Archive, ArchiveError
-from ..pointing.geometry import MosaicGeometry, pixel_centre
+from ..pointing.geometry import MosaicGeometry, SphericalMosaic, pixel_centre
 from .approach import Previous, station_image
 from .register import Frame, carry
+from .stitch import no_data, uncovered
 
 __all__ = [
     "DISTINCT",
@@ -88,16 +95,30 @@ def _lab(bgr: np.ndarray) -> np.ndarray:
     return lab.reshape(-1, 3)
 
 
-def lab_image(bgr: np.ndarray) -> np.ndarray:
-    """Float Lab of a uint8 BGR image, (M, N, 3)."""
-    return _lab(bgr).reshape(bgr.shape)
+def lab_image(bgr: np.ndarray, geometry: MosaicGeometry | None = None) -> np.ndarray:
+    """Float Lab of a uint8 BGR image, (M, N, 3); NaN where it is the mosaic of a station
+    shot as ``geometry`` and shows no-data (:func:`stitch.no_data`)."""
+    lab = _lab(bgr).reshape(bgr.shape)
+    void = no_data(bgr, geometry)
+    if void is not None:
+        lab[void] = np.nan
+    return lab
+
+
+def _unseen(plane: np.ndarray, void: np.ndarray) -> np.ndarray:
+    """``plane`` (a map of a mosaic, at its size or reduced from it) as float32, NaN on every
+    pixel that holds any of the mosaic's no-data ``void``."""
+    h, w = plane.shape[:2]
+    share = cv2.resize(void.astype(np.float32), (w, h), interpolation=cv2.INTER_AREA)
+    return np.where(share > 0, np.float32(np.nan), plane.astype(np.float32))
 
 
 def distinctness(lab: np.ndarray, x: float, y: float, radius: float) -> float:
     """ΔE between the mean colours of a patch's core and its surround, in the Lab image
     ``lab`` (M, N, 3): the core is the disc of half the ``radius`` (at least a pixel) around
     pixel (x, y) (centres at integers, as the analysis counts them), the surround the ring
-    from 1.5 to 2.5 radii; both cut to the image (0 when either falls outside it)."""
+    from 1.5 to 2.5 radii; both cut to the image and to its pixels that are not NaN
+    (no-data, :func:`lab_image`), 0 when either is left empty."""
     rows, cols = lab.shape[:2]
     core = max(1.0, 0.5 * radius)
     inner = max(core + 1.0, 1.5 * radius)
@@ -108,7 +129,9 @@ def distinctness(lab: np.ndarray, x: float, y: float, radius: float) -> float:
     ys, xs = np.mgrid[y0:y1, x0:x1]
     dist = np.hypot(xs - x, ys - y)
     window = lab[y0:y1, x0:x1]
-    inside, ring = window[dist <= core], window[(dist >= inner) & (dist <= outer)]
+    shown = ~np.isnan(window).any(axis=2)
+    inside = window[(dist <= core) & shown]
+    ring = window[(dist >= inner) & (dist <= outer) & shown]
     if not len(inside) or not len(ring):
         return 0.0
     return float(np.linalg.norm(inside.mean(axis=0) - ring.mean(axis=0)))
@@ -164,6 +187,9 @@ class SessionMemory:
         f = min(scale, 1.0)
         small = cv2.resize(mosaic, None, fx=f, fy=f, interpolation=cv2.INTER_AREA)
         lab = _lab(small)
+        void = no_data(mosaic, geometry)
+        if void is not None:  # no colour of the outcrop, nor blended into one
+            lab = lab[np.isfinite(_unseen(small[..., 0], void)).ravel()]
         k = min(PALETTE, len(lab))
         criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 20, 0.5)
         cv2.setRNGSeed(0)
@@ -190,7 +216,7 @@ class SessionMemory:
         point that is no target (``target`` false)."""
         if not self.stations:
             return points
-        frame, lab = self._frame(previous), lab_image(mosaic)
+        frame, lab = self._frame(previous), lab_image(mosaic, geometry)
         out = []
         for p in points:
             if not p.target:  # no further target: nothing to call new or seen
@@ -219,9 +245,13 @@ class SessionMemory:
             interest = previous.image(
                 archive, "analysis/interest.png", cv2.IMREAD_GRAYSCALE, "interest map"
             )
+            old_geo = previous.geometry(archive)
+            if isinstance(old_geo, SphericalMosaic):  # its no-data was not seen (module doc)
+                old = previous.image(archive, "mosaic.png", cv2.IMREAD_COLOR, "mosaic")
+                interest = _unseen(interest, uncovered(old))
             prior = station_prior(
                 interest,
-                previous.geometry(archive),
+                old_geo,
                 geometry,
                 target=previous.target,
                 radius_deg=previous.radius_deg,
@@ -302,7 +332,7 @@ class SessionMemory:
         if s.id not in self.mosaics:
             try:
                 bgr = station_image(archive, s.id, "mosaic.png", cv2.IMREAD_COLOR, "mosaic")
-                self.mosaics[s.id] = lab_image(bgr)
+                self.mosaics[s.id] = lab_image(bgr, s.geometry)
             except (ArchiveError, cv2.error) as exc:
                 _LOGGER.warning("memory: station %s not judged against: %s", s.id, exc)
                 self.mosaics[s.id] = None
@@ -340,12 +370,13 @@ def station_prior(
     """Weights for the new station's interest, (h, w) float32 on a grid of the new mosaic:
     ``1 - weight + weight x max(near, _ELSEWHERE x judged x fresh)``.
 
-    ``judged`` is the earlier interest (``interest``, over the earlier mosaic) carried into
-    the new frame and scaled to its maximum, 1 where the earlier station saw nothing (new
-    ground is not common ground); ``near`` a Gaussian around the chosen ``target`` of
-    sigma ``_NEAR`` times its radius as seen now (``radius_deg`` from the earlier station,
-    times ``walk``); ``fresh`` how far the new ``mosaic``'s colour at each cell lies from the
-    nearest colour of the earlier stations' ``palettes`` (:meth:`SessionMemory.palettes`),
+    ``judged`` is the earlier interest (``interest``, over the earlier mosaic; NaN where it
+    had no data) carried into the new frame and scaled to its maximum, 1 where the earlier
+    station saw nothing (new ground is not common ground); ``near`` a Gaussian around the
+    chosen ``target`` of sigma ``_NEAR`` times its radius as seen now (``radius_deg`` from
+    the earlier station, times ``walk``); ``fresh`` how far the new ``mosaic``'s colour at
+    each cell lies from the nearest colour of the earlier stations' ``palettes``
+    (:meth:`SessionMemory.palettes`),
     ΔE / ``NEW_DE`` up to 1 (1 everywhere without them). So the chosen target's place counts
     fully; what was judged interesting elsewhere, a quarter as much, and less the more its
     colour was one of the main colours from afar (a bed cut by the new frame's edge is rare in

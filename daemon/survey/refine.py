@@ -36,7 +36,9 @@ __all__ = [
     "TAKE_UP",
     "WINDOW",
     "Centring",
+    "View",
     "approach",
+    "expect",
     "measure",
     "separation",
 ]
@@ -118,6 +120,75 @@ class Centring:
         return self.trusted and self.error > CORRECTION_THRESHOLD
 
 
+@dataclass(frozen=True)
+class View:
+    """What a chip shot at ``pose`` should show about its middle: the mosaic warped to that
+    view. It needs no chip, so a survey makes it while the head is still on its way."""
+
+    pose: tuple[float, float]
+    target: tuple[float, float]
+    size: tuple[int, int]
+    """(width, height) of the full-resolution chip it is for."""
+    small: CameraModel
+    """The chip's camera reduced to where it is registered."""
+    corner: tuple[int, int]
+    """(x, y) of the registered square in the reduced chip."""
+    expected: np.ndarray
+    valid: np.ndarray
+    sigma: float
+    """Of the high pass, in reduced-chip pixels."""
+
+    def measure(self, chip: np.ndarray) -> Centring:
+        """Where the middle of ``chip`` (shot at :attr:`pose`, :attr:`size`) looks."""
+        small, (x0, y0), side = self.small, self.corner, self.expected.shape[0]
+        reduced = cv2.resize(chip, (small.width, small.height), interpolation=cv2.INTER_AREA)
+        middle = reduced[y0 : y0 + side, x0 : x0 + side]
+        shift, spread, confidence = _register(middle, self.expected, self.valid, self.sigma)
+        centre = pixel_to_angles(
+            small.width / 2.0 + shift[0], small.height / 2.0 + shift[1], *self.pose, small
+        )
+        found = Centring(
+            (float(centre[0]), float(centre[1])),
+            self.target,
+            confidence,
+            spread * small.degrees_per_pixel,
+        )
+        _LOGGER.debug(
+            "chip at %.3f, %.3f: off by %.3f +- %.3f deg (peak %.2f)",
+            *self.pose,
+            found.error,
+            found.uncertainty,
+            confidence,
+        )
+        return found
+
+
+def expect(
+    pose: tuple[float, float],
+    target: tuple[float, float],
+    size: tuple[int, int],
+    mosaic: np.ndarray,
+    geometry: MosaicGeometry,
+) -> View | None:
+    """The :class:`View` a chip of ``size`` (width, height) shot at the reported ``pose``
+    is registered to, for ``target`` (pan, tilt degrees); None when the mosaic holds too
+    little of it to tell."""
+    scale = _mosaic_scale(geometry, target)
+    if scale is None:
+        return None
+    up = min(UPSAMPLE, scale)
+    small = CameraModel(*size, geometry.camera.hfov).scaled(scale / up)
+    half = round(WINDOW / 2.0 / small.degrees_per_pixel)
+    half = min(max(half, round(_MIN_HALF * up)), small.width // 2, small.height // 2)
+    x0, y0 = small.width // 2 - half, small.height // 2 - half
+    expected, valid = _expected_view(
+        mosaic, geometry, pose, small, (x0, y0, 2 * half), target=target
+    )
+    if valid.mean() < _MIN_VALID:
+        return None
+    return View(pose, target, size, small, (x0, y0), expected, valid, _HIGH_PASS * up)
+
+
 def measure(
     chip: np.ndarray,
     pose: tuple[float, float],
@@ -128,40 +199,9 @@ def measure(
     """Register the middle of ``chip`` (a full-resolution frame shot at the reported
     ``pose``) to ``mosaic`` and say where its centre looks relative to ``target`` (pan, tilt
     degrees); None when the mosaic holds too little of that view to tell."""
-    scale = _mosaic_scale(geometry, target)
-    if scale is None:
-        return None
     height, width = chip.shape[:2]
-    up = min(UPSAMPLE, scale)
-    small = CameraModel(width, height, geometry.camera.hfov).scaled(scale / up)
-    half = round(WINDOW / 2.0 / small.degrees_per_pixel)
-    half = min(max(half, round(_MIN_HALF * up)), small.width // 2, small.height // 2)
-    x0, y0 = small.width // 2 - half, small.height // 2 - half
-    expected, valid = _expected_view(
-        mosaic, geometry, pose, small, (x0, y0, 2 * half), target=target
-    )
-    if valid.mean() < _MIN_VALID:
-        return None
-    reduced = cv2.resize(chip, (small.width, small.height), interpolation=cv2.INTER_AREA)
-    middle = reduced[y0 : y0 + 2 * half, x0 : x0 + 2 * half]
-    shift, spread, confidence = _register(middle, expected, valid, _HIGH_PASS * up)
-    centre = pixel_to_angles(
-        small.width / 2.0 + shift[0], small.height / 2.0 + shift[1], *pose, small
-    )
-    found = Centring(
-        (float(centre[0]), float(centre[1])),
-        target,
-        confidence,
-        spread * small.degrees_per_pixel,
-    )
-    _LOGGER.debug(
-        "chip at %.3f, %.3f: off by %.3f +- %.3f deg (peak %.2f)",
-        *pose,
-        found.error,
-        found.uncertainty,
-        confidence,
-    )
-    return found
+    view = expect(pose, target, (width, height), mosaic, geometry)
+    return None if view is None else view.measure(chip)
 
 
 def approach(

@@ -8,7 +8,8 @@ translation that best aligns it with its already placed neighbours on their over
 only when the alignment is confident (correlation, texture in both directions) and the
 correction is one the head could plausibly have made. Otherwise (textureless rock, sky, no
 overlap) the frame stays where the head says, and says so. Pixels no frame covers are
-no-data: exactly black (``vision.nodata``).
+no-data: exactly black, and only they are (:func:`uncovered` reads them back exactly, where
+the science's own rule, ``vision.nodata``, leaves out specks under its size floor).
 
 Pure imaging: frames and poses in, a mosaic and per-tile records out.
 """
@@ -23,9 +24,9 @@ from typing import Any
 import cv2
 import numpy as np
 
-from ..pointing.geometry import SphericalMosaic
+from ..pointing.geometry import MosaicGeometry, SphericalMosaic
 
-__all__ = ["Stitcher", "TileFit", "rotation"]
+__all__ = ["Stitcher", "TileFit", "no_data", "rotation", "uncovered"]
 
 _LOGGER = logging.getLogger(__name__)
 
@@ -70,6 +71,27 @@ _FLAT_CEILING = 1.02
 """Brightest a measured falloff may make any part of a frame relative to its centre: a lens
 does not brighten its corners, a fit does only by noise or the cliff's shading."""
 _ECC = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 60, 1e-4)
+_LEAST = 1
+"""Level a covered pixel blended to pure black is lifted to (every channel): one grey level
+of crushed shadow, so exact black marks no-data alone."""
+
+
+def uncovered(mosaic: np.ndarray) -> np.ndarray:
+    """The pixels of a composed mosaic (:meth:`Stitcher.compose`, or its lossless PNG) no
+    frame covers: exactly black, which no covered pixel is. (M, N) bool.
+
+    >>> m = np.full((2, 3, 3), 90, np.uint8)
+    >>> m[0, 0] = 0
+    >>> uncovered(m).astype(int).tolist()
+    [[1, 0, 0], [0, 0, 0]]
+    """
+    return ~mosaic.any(axis=2)
+
+
+def no_data(mosaic: np.ndarray, geometry: MosaicGeometry | None) -> np.ndarray | None:
+    """Where a station's ``mosaic``, shot as ``geometry``, shows nothing: a stitched one's
+    uncovered pixels; None for a butted one (its black may be a shadow the camera crushed)."""
+    return uncovered(mosaic) if isinstance(geometry, SphericalMosaic) else None
 
 
 def rotation(pan: float, tilt: float) -> np.ndarray:
@@ -292,9 +314,10 @@ class Stitcher:
 
     def compose(self) -> np.ndarray:
         """The mosaic: every frame from its placed pose, flat-fielded (:attr:`vignetting`),
-        gains compensated, seams found and blended; black where no frame reaches. Shape
-        ``(height, width, 3)`` uint8. :attr:`owners` then says which tile (its index in
-        :attr:`tiles`) each pixel shows, -1 for none: the seams are where it changes."""
+        gains compensated, seams found and blended; black where no frame reaches and
+        nowhere else (:func:`uncovered`). Shape ``(height, width, 3)`` uint8.
+        :attr:`owners` then says which tile (its index in :attr:`tiles`) each pixel shows,
+        -1 for none: the seams are where it changes."""
         width, height = self.geometry.size
         if not self.tiles:
             return np.zeros((height, width, 3), np.uint8)
@@ -325,8 +348,10 @@ class Stitcher:
             blender.feed(image.astype(np.int16), seam_mask, (cc.start, cr.start))
         result, result_mask = blender.blend(None, None)
         mosaic = np.clip(result, 0, 255).astype(np.uint8)
-        mosaic[result_mask == 0] = 0
-        self.owners[result_mask == 0] = -1
+        covered = result_mask > 0
+        mosaic[covered & ~mosaic.any(axis=2)] = _LEAST  # black is kept for no-data alone
+        mosaic[~covered] = 0
+        self.owners[~covered] = -1
         return mosaic
 
     def _measure_vignetting(self) -> np.ndarray | None:

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["AnalysisJob", "AnalysisResult", "ResultPoint"]
+__all__ = ["Analysed", "AnalysisJob", "AnalysisResult", "PointsJob", "ProductsJob", "ResultPoint"]
 
 
 @dataclass(frozen=True)
@@ -62,7 +62,9 @@ class AnalysisResult:
 class AnalysisJob:
     """Analyse ``image`` (a mosaic) with profile ``profile`` changed by ``settings``
     (``NAME=VALUE``), weighted by ``prior`` (memory across stations, or None), and write
-    every product into ``folder``; ``label`` is the image's name in the result."""
+    every product into ``folder``; ``label`` is the image's name in the result.
+    ``no_data``, when the mosaic's maker knows it (a stitched canvas's uncovered pixels),
+    is left out of the analysis as surely as the fill the science finds by itself."""
 
     folder: str
     image: np.ndarray
@@ -70,6 +72,7 @@ class AnalysisJob:
     label: str
     prior: np.ndarray | None = None
     settings: tuple[str, ...] = ()
+    no_data: np.ndarray | None = None
 
     returns: ClassVar[type[AnalysisResult]] = AnalysisResult
 
@@ -78,3 +81,46 @@ class AnalysisJob:
         from .job import analyse_into  # noqa: PLC0415 - the service never loads the science
 
         return analyse_into(self)
+
+
+@dataclass(frozen=True, eq=False)
+class ProductsJob:
+    """Write the products and ``result.json`` of an analysis a :class:`PointsJob` made."""
+
+    folder: str
+    label: str
+    profile: str
+    state: bytes
+    """The analysis and its input, pickled in the worker: opaque to the service."""
+
+    returns: ClassVar[type[AnalysisResult]] = AnalysisResult
+
+    def run(self) -> AnalysisResult:
+        """Run in the worker process (see :meth:`AnalysisJob.run`)."""
+        from .job import write_analysed  # noqa: PLC0415 - the service never loads the science
+
+        return write_analysed(self)
+
+
+@dataclass(frozen=True, eq=False)
+class Analysed:
+    """A :class:`PointsJob`'s answer: the result as ``result.json`` will hold it (its
+    ``products`` still empty) and the job that writes them."""
+
+    result: AnalysisResult
+    products: ProductsJob
+
+
+@dataclass(frozen=True, eq=False)
+class PointsJob(AnalysisJob):
+    """:class:`AnalysisJob` in two calls: this one answers as soon as the points are found,
+    and the :class:`ProductsJob` of its answer draws and writes every product, so a survey
+    re-points the head at the points meanwhile."""
+
+    returns: ClassVar[type[Analysed]] = Analysed  # type: ignore[assignment]
+
+    def run(self) -> Analysed:  # type: ignore[override]
+        """Run in the worker process (see :meth:`AnalysisJob.run`)."""
+        from .job import analyse_points  # noqa: PLC0415 - the service never loads the science
+
+        return analyse_points(self)

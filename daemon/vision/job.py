@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import pickle
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -17,7 +18,7 @@ import numpy as np
 
 from ..pointing.geometry import pixel_centre, pixel_index
 from . import render
-from .contract import AnalysisJob, AnalysisResult, ResultPoint
+from .contract import Analysed, AnalysisJob, AnalysisResult, PointsJob, ProductsJob, ResultPoint
 from .exact import exact
 from .explain import PLANE_NAMES, describe
 from .grid import reduce_to
@@ -29,10 +30,12 @@ from .uncommon import uncommon_map
 
 __all__ = [
     "analyse_into",
+    "analyse_points",
     "analyze_image",
     "input_points",
     "result_document",
     "working_reduction",
+    "write_analysed",
     "write_products",
 ]
 
@@ -56,10 +59,11 @@ def analyze_image(
     params: VisionParams,
     downsample: float | None = None,
     prior: np.ndarray | None = None,
+    no_data: np.ndarray | None = None,
 ) -> tuple[np.ndarray, Analysis]:
     """Normalise, reduce (as the seed did, 4-8x; by default to the profile's working size),
-    analyse (with ``prior`` weights over the same ground, ``pipeline.analyze``); returns
-    (bgr, analysis)."""
+    analyse (with ``prior`` weights over the same ground and the ``no_data`` known of the
+    image, ``pipeline.analyze``); returns (bgr, analysis)."""
     bgr = as_bgr8(image)
     if downsample is None:
         downsample = working_reduction(bgr.shape, params)
@@ -68,7 +72,9 @@ def analyze_image(
         rows, cols = bgr.shape[:2]
         size = (max(1, int(cols / downsample)), max(1, int(rows / downsample)))
         work = reduce_to(bgr, size)
-    return bgr, analyze(work, params, prior)
+        if no_data is not None:  # a reduced pixel with any no-data in it is no-data
+            no_data = reduce_to(no_data.astype(np.float32), size) > 0
+    return bgr, analyze(work, params, prior, no_data)
 
 
 def _to_input(value: float, scale: float) -> float:
@@ -191,10 +197,27 @@ def write_products(
     return result
 
 
-def analyse_into(job: AnalysisJob) -> AnalysisResult:
-    """The vision worker's analysis: the job's mosaic (weighted by its ``prior``, memory
-    across stations) with its profile changed by its ``settings`` (the rig's
-    ``survey.settings``), every product written into its ``folder``."""
+def _analyse(job: AnalysisJob) -> tuple[np.ndarray, Analysis]:
+    """The job's mosaic (weighted by its ``prior``, memory across stations) analysed with
+    its profile changed by its ``settings`` (the rig's ``survey.settings``)."""
     params = with_settings(profile(job.profile), list(job.settings))
-    bgr, res = analyze_image(job.image, params, prior=job.prior)
+    return analyze_image(job.image, params, prior=job.prior, no_data=job.no_data)
+
+
+def analyse_into(job: AnalysisJob) -> AnalysisResult:
+    """The vision worker's analysis (:func:`_analyse`), every product written into the
+    job's ``folder``."""
+    return write_products(Path(job.folder), job.label, *_analyse(job), job.profile)
+
+
+def analyse_points(job: PointsJob) -> Analysed:
+    """:func:`analyse_into` up to the points; the answer's job writes the products."""
+    bgr, res = _analyse(job)
+    later = ProductsJob(job.folder, job.label, job.profile, pickle.dumps((bgr, res), protocol=5))
+    return Analysed(result_document(job.label, bgr, res, job.profile, {}), later)
+
+
+def write_analysed(job: ProductsJob) -> AnalysisResult:
+    """The products and ``result.json`` of an analysis :func:`analyse_points` made."""
+    bgr, res = pickle.loads(job.state)  # no new trust: the pipe carrying it is pickle too
     return write_products(Path(job.folder), job.label, bgr, res, job.profile)

@@ -23,6 +23,7 @@ import cv2
 import numpy as np
 
 from .cooccurrence import Segmentation
+from .kernels import kernel
 
 __all__ = ["discount_texture", "discount_uncommon", "layer_share"]
 
@@ -66,18 +67,22 @@ def layer_share(seg: Segmentation) -> np.ndarray:
     rows, cols = seg.labels.shape
     diag = math.hypot(rows, cols)
     share = np.zeros((rows, cols), np.float32)
-    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * _BRIDGE + 1, 2 * _BRIDGE + 1))
+    if seg.k < 2:
+        return share
+    bridge = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * _BRIDGE + 1, 2 * _BRIDGE + 1))
+    # A class's core (its mask eroded: speckle and lines gone, what could be a bed) is where
+    # a pixel's whole 3 x 3 neighbourhood in the frame holds its label: the lowest and the
+    # highest label there are the same. One pass tells each class's columns and rows.
+    lowest, highest = cv2.erode(seg.labels, None), cv2.dilate(seg.labels, None)
+    spans, first, last = _core_spans(lowest, highest, seg.k)
     for k in range(2, seg.k + 1):
-        mask = cv2.compare(seg.labels, k, cv2.CMP_EQ)
-        core = cv2.erode(mask, None)  # speckle and lines gone: what could be a bed
-        if cv2.countNonZero(cv2.reduce(core, 0, cv2.REDUCE_MAX)) <= _SPAN[0] * cols:
+        if spans[k] <= _SPAN[0] * cols:
             continue  # spans too little to be a layer: most classes, cheaply
         # Only the rows a bed's core reaches (and the bridge around them) are labelled.
-        ys = np.flatnonzero(cv2.reduce(core, 1, cv2.REDUCE_MAX))
-        r0, r1 = max(0, ys[0] - 2 * _BRIDGE), min(rows, ys[-1] + 2 * _BRIDGE + 1)
-        mask = mask[r0:r1]
+        r0, r1 = max(0, first[k] - 2 * _BRIDGE), min(rows, last[k] + 2 * _BRIDGE + 1)
+        mask = cv2.compare(seg.labels[r0:r1], k, cv2.CMP_EQ)
         _, regions, stats, _ = cv2.connectedComponentsWithStats(
-            cv2.dilate(mask, kernel), connectivity=8
+            cv2.dilate(mask, bridge), connectivity=8
         )
         for j in np.nonzero(stats[1:, cv2.CC_STAT_WIDTH] > _SPAN[0] * cols)[0] + 1:
             width = int(stats[j, cv2.CC_STAT_WIDTH])
@@ -87,6 +92,27 @@ def layer_share(seg: Segmentation) -> np.ndarray:
             if s > 0:
                 share[r0:r1][region] = s
     return share
+
+
+@kernel
+def _core_spans(lowest: np.ndarray, highest: np.ndarray, k: int) -> tuple:
+    """For each label 0..``k``: how many columns its core reaches, and the first and the
+    last row it reaches (-1 where it has none); a core pixel is one whose ``lowest`` and
+    ``highest`` label around it are the same."""
+    rows, cols = lowest.shape
+    seen = np.zeros((k + 1, cols), np.bool_)
+    first = np.full(k + 1, -1, np.int64)
+    last = np.full(k + 1, -1, np.int64)
+    for y in range(rows):
+        low, high = lowest[y], highest[y]
+        for x in range(cols):
+            label = low[x]
+            if label == high[x]:
+                seen[label, x] = True
+                if first[label] < 0:
+                    first[label] = y
+                last[label] = y
+    return seen.sum(axis=1), first, last
 
 
 def discount_uncommon(umap: np.ndarray, share: np.ndarray, strength: float) -> np.ndarray:
@@ -100,7 +126,19 @@ def discount_uncommon(umap: np.ndarray, share: np.ndarray, strength: float) -> n
     >>> discount_uncommon(umap, share, 0.5).tolist()
     [[0.0, 1.0, 3.0, 5.0]]
     """
-    return umap - np.maximum(umap - np.float32(1.0), 0) * (share * np.float32(strength))
+    return _discounted(umap, share, np.float32(strength))
+
+
+@kernel
+def _discounted(umap: np.ndarray, share: np.ndarray, strength: np.float32) -> np.ndarray:
+    """:func:`discount_uncommon` in one pass, float32 operation for operation."""
+    out = np.empty(umap.shape, np.float32)
+    one, zero = np.float32(1.0), np.float32(0.0)
+    for y in range(umap.shape[0]):
+        for x in range(umap.shape[1]):
+            value = umap[y, x]
+            out[y, x] = value - max(value - one, zero) * (share[y, x] * strength)
+    return out
 
 
 def discount_texture(texture: np.ndarray, shares: list[np.ndarray], strength: float) -> np.ndarray:
@@ -111,4 +149,15 @@ def discount_texture(texture: np.ndarray, shares: list[np.ndarray], strength: fl
         np.maximum.reduce(shares),
         cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * _CONTACT + 1, 2 * _CONTACT + 1)),
     )
-    return texture * (1.0 - near * np.float32(strength * _TEXTURE_SHARE))
+    return _cut(texture, near, np.float32(strength * _TEXTURE_SHARE))
+
+
+@kernel
+def _cut(texture: np.ndarray, near: np.ndarray, strength: np.float32) -> np.ndarray:
+    """texture x (1 - near x strength) in one pass, float32 operation for operation."""
+    out = np.empty(texture.shape, np.float32)
+    one = np.float32(1.0)
+    for y in range(texture.shape[0]):
+        for x in range(texture.shape[1]):
+            out[y, x] = texture[y, x] * (one - near[y, x] * strength)
+    return out

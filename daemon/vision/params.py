@@ -34,6 +34,16 @@ class VisionParams:
     only (texture and shade see the image as it came); 0 = off. Each pixel's class is voted
     by its own 4 neighbour pairs, so sensor noise flips pixels between classes and a small
     class in or out of existence from one look to the next."""
+    presmooth_colour: float = 0.0
+    """When > 0, H and S are pre-smoothed with this sigma per 100 codes of the view's colour
+    contrast (``hsi.colour_contrast``) where that exceeds ``presmooth`` (up to
+    ``PRESMOOTH_MAX``): a camera's colour is coarser than its brightness (a Bayer mosaic, a
+    JPEG's half-resolution colour) and its block and ringing errors grow with the colour
+    edges, so plants on soil swap their hue classes between looks; a grey view's chroma is
+    nothing but noise, which more smoothing would only gather into blobs. 0: off, in every
+    profile: at 2.0, repeat@1 through a camera's JPEG rises on plants 82.8 -> 93.1 % but
+    falls on Mars rocks one image in 56 (``docs/benchmarks.md``), so it is a camera's choice
+    (``--set presmooth_colour=2``), not yet the default's."""
 
     # HSI conversion
     grey_saturation: int = 32
@@ -204,6 +214,8 @@ class VisionParams:
             raise ValueError("need 1 <= radius_min <= radius_max <= 64")
         if self.blur <= 0 or self.top_n < 0 or self.cooc_sigma < 0 or self.presmooth < 0:
             raise ValueError("blur must be > 0; top_n, cooc_sigma, presmooth >= 0")
+        if self.presmooth_colour < 0:
+            raise ValueError("presmooth_colour must be >= 0")
         if self.radius_scale <= 0:
             raise ValueError("radius_scale must be > 0")
         if self.uncommon not in ("rank", "spread", "surprisal"):
@@ -262,6 +274,10 @@ class VisionParams:
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
 
+
+PRESMOOTH_MAX = 2.0
+"""Largest pre-smoothing sigma (analysed pixels) the colour contrast sets: a wider one would
+blur away the small targets the blur B still resolves."""
 
 PAPER = VisionParams()
 """The seed's stated choices (H, S, I; <= 8 classes; rank uncommon map; unweighted sum;

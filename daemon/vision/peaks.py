@@ -20,6 +20,7 @@ import cv2
 import numpy as np
 
 from .interest import InterestMap, InterestPoint
+from .order import median
 from .params import VisionParams
 
 __all__ = [
@@ -110,9 +111,9 @@ def find_points(imap: InterestMap, params: VisionParams) -> list[InterestPoint]:
     rows, cols = np.nonzero(peak)
     chosen: list[tuple[int, int, float, float, float, float]] = []  # peak r, c; y, x; ...
     support = grid if imap.blurred is None else imap.blurred
-    base = float(np.median(support))  # heights count from the map's typical level
+    base = float(median(support))  # heights count from the map's typical level
     whole = support if imap.plain is None else imap.plain
-    whole_base = float(np.median(whole))
+    whole_base = float(median(whole))
     discount = max(params.bands, params.frame) > 0 and params.valley > 0
     width = _BAND_WIDTH * params.sigma(imap.shape) / f
     reach = _FRAME_REACH * params.sigma(imap.shape) / f
@@ -234,8 +235,8 @@ def background(grid: np.ndarray) -> tuple[float, float]:
     >>> typical, round(spread, 4)                   # the 90 moves neither
     (2.5, 2.2239)
     """
-    typical = float(np.median(grid))
-    return typical, _MAD_SIGMA * float(np.median(np.abs(grid - typical)))
+    typical = float(median(grid))
+    return typical, _MAD_SIGMA * float(median(np.abs(grid - typical)))
 
 
 _MAD_SIGMA = 1.4826

@@ -13,12 +13,12 @@ from .aims import aim_entry, aim_points, aimed_map, kind_maps
 from .cooccurrence import BAND_PIXELS, Segmentation
 from .exact import exact
 from .explain import PLANE_NAMES, clauses, explain_points, plain_lines
-from .hsi import HSIPlanes, hue_histogram_rotation, rgb_to_hsi
+from .hsi import HSIPlanes, colour_contrast, hue_histogram_rotation, rgb_to_hsi
 from .interest import InterestMap, InterestPoint, interest_map, summed_uncommon
 from .layers import discount_texture, discount_uncommon, layer_share
 from .lines import line_rarity, line_shade
 from .nodata import beside, fill, neutral, no_data_mask
-from .params import VisionParams
+from .params import PRESMOOTH_MAX, VisionParams
 from .segment import segment_plane
 from .shadow import shadow_likelihood
 from .texture import texture_rarity
@@ -51,16 +51,23 @@ class Analysis:
     """The image as given to :func:`analyze`, which :attr:`hsi` is made from again."""
     planes: HSIPlanes | None = field(default=None, repr=False)
     """The H, S, I planes when the analysis kept them (an image up to ``_KEEP_PLANES``)."""
+    no_data: np.ndarray | None = field(default=None, repr=False)
+    """The no-data left out (found, or given to :func:`analyze`), for :attr:`hsi`."""
 
     @cached_property
     def hsi(self) -> HSIPlanes:
         """The analysed image's H, S, I planes: those kept, else made again (on a big image
         they are not held through the analysis, for products that may never be asked for)."""
-        return _planes(self.planes, self.image, self.params)
+        return _planes(self.planes, self.image, self.params, self.no_data)
 
 
 @exact
-def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = None) -> Analysis:
+def analyze(
+    bgr: np.ndarray,
+    params: VisionParams,
+    prior: np.ndarray | None = None,
+    no_data: np.ndarray | None = None,
+) -> Analysis:
     """Find the most uncommon regions of a colour image.
 
     Parameters
@@ -72,6 +79,9 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
     prior : 2-D ndarray, optional
         Weights on the interest where points are picked (``interest.interest_map``), of any
         size covering the same ground as ``bgr`` (resized to it).
+    no_data : (M, N) bool ndarray, optional
+        Pixels known not to be image (a stitched mosaic's uncovered canvas), left out with
+        any fill the analysis finds itself (``nodata``), however small.
 
     Returns
     -------
@@ -95,7 +105,7 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     source = bgr
-    bgr, void, hsi = _prepare(bgr, params)
+    bgr, void, hsi = _prepare(bgr, params, no_data)
     valid = None if void is None else ~void
     t1 = time.perf_counter()
     timings["hsi"] = (t1 - t0) * 1e3
@@ -149,7 +159,7 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
         prior = _fit_prior(prior, bgr.shape[:2])
     imap = interest_map(segs, params, total, texture, prior=prior, line=lines)
     # An aim (``aims``) orders the points by kind; ``any`` leaves them as found.
-    planes = partial(_planes, kept, source, params)
+    planes = partial(_planes, kept, source, params, void)
     likeness = None if params.aim == "any" else kind_maps(bgr, planes(), shade, bars)
     remap = partial(aimed_map, segs, params, total, texture, prior=prior, line=lines)
     points, kinds = aim_points(imap, params, likeness, remap)
@@ -176,7 +186,7 @@ def analyze(bgr: np.ndarray, params: VisionParams, prior: np.ndarray | None = No
     timings["total"] = (time.perf_counter() - t0) * 1e3
     notes = _notes(segs, params, void)
     return Analysis(
-        segs, imap, points, explanations, descriptions, params, timings, notes, source, kept
+        segs, imap, points, explanations, descriptions, params, timings, notes, source, kept, void
     )
 
 
@@ -217,17 +227,38 @@ making them twice."""
 
 
 def _prepare(
-    bgr: np.ndarray, params: VisionParams
+    bgr: np.ndarray, params: VisionParams, known: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray | None, HSIPlanes]:
     """(the image with any no-data fill made neutral, the fill's mask or None, the H, S, I
-    planes of what is segmented)."""
-    void = no_data_mask(bgr)
+    planes of what is segmented); ``known``: no-data the caller knows of."""
+    void = _void(no_data_mask(bgr), known)
     if void is not None:  # a mosaic's or a panorama's black fill is not image (``nodata``)
         bgr = fill(bgr, void)
     # Sensor noise is smoothed out of what is segmented only: texture and shade are judged
     # on the image as it came (fine local contrast is what texture rarity measures).
-    smooth = cv2.GaussianBlur(bgr, (0, 0), params.presmooth) if params.presmooth > 0 else bgr
-    return bgr, void, rgb_to_hsi(smooth, params.grey_saturation, params.hue_min_intensity)
+    hsi = _smoothed_hsi(bgr, params.presmooth, params)
+    if params.presmooth_colour > 0:  # colour, coarser than brightness, more on a colourful view
+        contrast = colour_contrast(hsi.s, None if void is None else ~void)
+        colour = min(PRESMOOTH_MAX, params.presmooth_colour * contrast / 100.0)
+        if colour > params.presmooth:
+            chroma = _smoothed_hsi(bgr, colour, params)
+            hsi = hsi._replace(h=chroma.h, s=chroma.s)
+    return bgr, void, hsi
+
+
+def _void(found: np.ndarray | None, known: np.ndarray | None) -> np.ndarray | None:
+    """The no-data found and the no-data known together; None when there is none, or when
+    nothing else is left (no image to tell it from, as ``nodata.no_data_mask`` says)."""
+    if known is None or not known.any():
+        return found
+    void = known if found is None else found | known
+    return None if void.all() else void
+
+
+def _smoothed_hsi(bgr: np.ndarray, sigma: float, params: VisionParams) -> HSIPlanes:
+    """The H, S, I planes of ``bgr`` smoothed by a Gaussian of ``sigma`` (0: as it is)."""
+    smooth = cv2.GaussianBlur(bgr, (0, 0), sigma) if sigma > 0 else bgr
+    return rgb_to_hsi(smooth, params.grey_saturation, params.hue_min_intensity)
 
 
 def _segment_hue(hsi: HSIPlanes, valid: np.ndarray | None, params: VisionParams) -> Segmentation:
@@ -249,9 +280,14 @@ def _segment_hue(hsi: HSIPlanes, valid: np.ndarray | None, params: VisionParams)
 
 
 @exact
-def _planes(kept: HSIPlanes | None, image: np.ndarray, params: VisionParams) -> HSIPlanes:
-    """The planes kept, else those of ``image`` made again."""
-    return kept if kept is not None else _prepare(image, params)[2]
+def _planes(
+    kept: HSIPlanes | None,
+    image: np.ndarray,
+    params: VisionParams,
+    void: np.ndarray | None = None,
+) -> HSIPlanes:
+    """The planes kept, else those of ``image`` (with its no-data ``void``) made again."""
+    return kept if kept is not None else _prepare(image, params, void)[2]
 
 
 def _summed(segs: tuple[Segmentation, ...], params: VisionParams) -> np.ndarray:

@@ -198,8 +198,10 @@ def _label(
             coded[top:bottom], u_lut, None if mask is None else mask[top:bottom], params
         )
         labels[r0:r1] = band[r0 - top : r1 - top]
+        # One pass counts every class (float32 counts are exact: a band is < 2^24 pixels).
+        counts = cv2.calcHist([labels[r0:r1]], [0], None, [k + 1], [0, k + 1]).ravel()
         for c in range(k):
-            areas[c] += cv2.countNonZero(cv2.compare(labels[r0:r1], c + 1, cv2.CMP_EQ))
+            areas[c] += int(counts[c + 1])
     return labels, areas
 
 

@@ -166,8 +166,20 @@ def _likelihood(bgr: np.ndarray, params: VisionParams) -> np.ndarray:
     untinted = cv2.morphologyEx(untinted, cv2.MORPH_OPEN, _disc(_THIN))
     crack = cv2.GaussianBlur(level, (0, 0), _CRACK)
     lines = _dark_lines(cv2.subtract(cv2.transform(host, _MEAN), crack))
-    untinted[lines > 0] = 0.0
-    return cv2.dilate(cv2.max(tinted, untinted), _disc(_EDGE))
+    return cv2.dilate(_either(tinted, untinted, lines), _disc(_EDGE))
+
+
+@kernel
+def _either(tinted: np.ndarray, untinted: np.ndarray, lines: np.ndarray) -> np.ndarray:
+    """The larger of the tinted and the untinted evidence, the untinted taken as 0 on
+    ``lines``, float32: the mask and the maximum in one pass."""
+    out = np.empty(tinted.shape, np.float32)
+    zero = np.float32(0.0)
+    for y in range(tinted.shape[0]):
+        for x in range(tinted.shape[1]):
+            other = zero if lines[y, x] else untinted[y, x]
+            out[y, x] = tinted[y, x] if tinted[y, x] >= other else other
+    return out
 
 
 def _dark_lines(deficit: np.ndarray) -> np.ndarray:
@@ -178,9 +190,26 @@ def _dark_lines(deficit: np.ndarray) -> np.ndarray:
     n, labels = cv2.connectedComponents(dark, connectivity=8)
     if n <= 1:
         return np.zeros_like(dark)
-    body = np.zeros(n, np.uint8)
-    body[labels[cv2.morphologyEx(dark, cv2.MORPH_OPEN, _disc(_THIN)) > 0]] = 1
-    return cv2.dilate(dark - body[labels], _disc(_EDGE))
+    opened = cv2.morphologyEx(dark, cv2.MORPH_OPEN, _disc(_THIN))
+    return cv2.dilate(_thin_patches(labels, opened, n), _disc(_EDGE))
+
+
+@kernel
+def _thin_patches(labels: np.ndarray, opened: np.ndarray, n: int) -> np.ndarray:
+    """uint8 mask of the pixels of the ``n - 1`` labelled patches (label 0: none) that hold
+    no pixel of ``opened``."""
+    body = np.zeros(n, np.bool_)
+    for y in range(labels.shape[0]):
+        for x in range(labels.shape[1]):
+            if opened[y, x]:
+                body[labels[y, x]] = True
+    out = np.zeros(labels.shape, np.uint8)
+    for y in range(labels.shape[0]):
+        for x in range(labels.shape[1]):
+            label = labels[y, x]
+            if label > 0 and not body[label]:
+                out[y, x] = 1
+    return out
 
 
 def _lit_mean(

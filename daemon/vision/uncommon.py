@@ -22,6 +22,7 @@ import cv2
 import numpy as np
 
 from .cooccurrence import Segmentation
+from .kernels import kernel
 from .params import VisionParams
 
 __all__ = ["UncommonWindows", "uncommon_map", "uncommon_values", "value_rarity"]
@@ -104,11 +105,24 @@ def uncommon_map(seg: Segmentation, params: VisionParams) -> np.ndarray:
     [1.0, 8.0]
     """
     table = uncommon_values(seg, params).astype(np.float32)
-    umap = cv2.LUT(seg.labels, table)
     if params.value_rarity > 0 and seg.values is not None and seg.k:
-        tail = cv2.LUT(seg.values, value_rarity(seg, params) * np.float32(params.value_rarity))
-        umap += cv2.bitwise_and(tail, tail, mask=cv2.compare(seg.labels, 0, cv2.CMP_GT))
-    return umap
+        tail = value_rarity(seg, params) * np.float32(params.value_rarity)
+        return _with_tail(seg.labels, seg.values, table, tail)
+    return cv2.LUT(seg.labels, table)
+
+
+@kernel
+def _with_tail(
+    labels: np.ndarray, values: np.ndarray, table: np.ndarray, tail: np.ndarray
+) -> np.ndarray:
+    """table[label] + tail[value] where a pixel is labelled, table[label] elsewhere, float32:
+    the two lookups, the mask and the sum in one pass."""
+    out = np.empty(labels.shape, np.float32)
+    for y in range(labels.shape[0]):
+        for x in range(labels.shape[1]):
+            label = labels[y, x]
+            out[y, x] = table[label] + tail[values[y, x]] if label > 0 else table[label]
+    return out
 
 
 class UncommonWindows:
