@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo rig test bench bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security bench-printed bench-novelty bench-targets bench-sizes bench-aims bench-archive bench-nodata bench-mosaic bench-chips lint clean
+.PHONY: demo rig test bench bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security bench-printed bench-novelty bench-targets bench-sizes bench-aims bench-archive bench-nodata bench-mosaic bench-chips bench-stages lint clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -96,6 +96,10 @@ bench-mosaic: $(STAMP)
 # Chips re-pointed at their targets with a 0.3 deg pointing error on, with and without refinement.
 bench-chips: $(STAMP)
 	$(PY) -m bench.chips --stations 20
+
+# CPU ms per stage of `default` on real images and the seed's 108x192 mosaic (where the time goes).
+bench-stages: $(STAMP)
+	$(PY) -m bench.stages
 
 bench-edges: $(STAMP)
 	$(PY) -m bench.edges
