@@ -19,6 +19,7 @@ import json
 import logging
 import os
 import shutil
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,10 +47,16 @@ def _now() -> str:
 
 @dataclass
 class Station:
-    """One station's folder and manifest; every write updates the manifest atomically."""
+    """One station's folder and manifest; every write updates the manifest atomically.
+
+    The survey's loop and the threads archiving its tiles and chips change the manifest
+    alike (a station ended while a chip is still being saved): each change and the write
+    that follows it hold :attr:`_lock`, so the file on disk never misses a change made
+    before it and a change never lands in the middle of a write."""
 
     folder: Path
     manifest: dict[str, Any] = field(default_factory=dict)
+    _lock: threading.RLock = field(default_factory=threading.RLock, repr=False, compare=False)
 
     @property
     def name(self) -> str:
@@ -61,32 +68,41 @@ class Station:
         return self.folder / PARTIAL
 
     def save(self) -> None:
-        write_atomic(self.folder / MANIFEST, (json.dumps(self.manifest, indent=1) + "\n").encode())
+        with self._lock:
+            text = json.dumps(self.manifest, indent=1) + "\n"
+            write_atomic(self.folder / MANIFEST, text.encode())
 
     def update(self, **fields: Any) -> None:
-        self.manifest.update(fields)
-        self.save()
+        with self._lock:
+            self.manifest.update(fields)
+            self.save()
 
     def amend(self, name: str, **fields: Any) -> None:
         """Add ``fields`` to the manifest's mapping ``name`` (a choice's next plan, its zoom)."""
-        self.update(**{name: self.manifest[name] | fields})
+        with self._lock:
+            self.update(**{name: self.manifest[name] | fields})
 
-    def _record(self, rel: str, size: int) -> None:
-        self.manifest.setdefault("files", {})[rel] = size
+    def _record(self, rel: str, size: int, entry: tuple[str, dict[str, Any]] | None = None) -> None:
+        """List a whole file (and an ``entry`` under its list name) and write the manifest."""
+        with self._lock:
+            self.manifest.setdefault("files", {})[rel] = size
+            if entry is not None:
+                self.manifest.setdefault(entry[0], []).append(entry[1])
+            self.save()
 
     def write(self, rel: str, data: bytes) -> None:
         write_atomic(self.folder / rel, data)
         self._record(rel, len(data))
-        self.save()
 
     def write_png(self, rel: str, image: np.ndarray) -> None:
         self._put_png(rel, image)
-        self.save()
 
-    def _put_png(self, rel: str, image: np.ndarray) -> None:
+    def _put_png(
+        self, rel: str, image: np.ndarray, entry: tuple[str, dict[str, Any]] | None = None
+    ) -> None:
         path = self.folder / rel
         write_png(path, image)
-        self._record(rel, path.stat().st_size)
+        self._record(rel, path.stat().st_size, entry)
 
     def add_tile(
         self,
@@ -100,11 +116,8 @@ class Station:
         """Archive a mosaic tile as shot and list it (pose, time, ``fields`` such as its
         registration) in the manifest; its path."""
         rel = f"tiles/r{row}c{col}.png"
-        self._put_png(rel, image)
         entry = {"file": rel, "row": row, "col": col, "pan": pose[0], "tilt": pose[1], "t": t}
-        entry |= fields
-        self.manifest.setdefault("tiles", []).append(entry)
-        self.save()
+        self._put_png(rel, image, ("tiles", entry | fields))
         return rel
 
     def add_chip(
@@ -113,11 +126,8 @@ class Station:
         """Archive the full-resolution chip of point ``rank`` and list it (pose, time,
         ``fields`` such as its centring); its path."""
         rel = f"chips/chip{rank}.png"
-        self._put_png(rel, image)
         entry = {"file": rel, "rank": rank, "pan": pose[0], "tilt": pose[1], "t": t}
-        entry |= fields
-        self.manifest.setdefault("chips", []).append(entry)
-        self.save()
+        self._put_png(rel, image, ("chips", entry | fields))
         return rel
 
     def publish_analysis(self) -> list[str]:
@@ -128,9 +138,10 @@ class Station:
         os.replace(self.partial_dir, final)
         fsync_path(self.folder)
         written = sorted(p.relative_to(self.folder).as_posix() for p in final.iterdir())
-        for rel in written:
-            self._record(rel, (self.folder / rel).stat().st_size)
-        self.save()
+        with self._lock:
+            files = self.manifest.setdefault("files", {})
+            files.update((rel, (self.folder / rel).stat().st_size) for rel in written)
+            self.save()
         return written
 
     def finish(self, status: str, reason: str = "") -> None:
