@@ -64,6 +64,7 @@ class ChipTruth:
     first_deg: float
     seam_px: float
     seed: int
+    point: InterestPoint
 
 
 async def station_chips(
@@ -138,6 +139,7 @@ async def station_chips(
                             separation(views[0], place),
                             seam,
                             seed,
+                            point,
                         )
                     )
         finally:

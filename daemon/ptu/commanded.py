@@ -30,8 +30,9 @@ __all__ = ["CommandedPtu"]
 _LOGGER = logging.getLogger(__name__)
 
 POLL_INTERVAL = 0.005
-"""Pause between position polls while waiting for motion. Each poll is two queries, about
-21 ms of a 9600-baud line, so the line sets the pace; the pause only yields to others."""
+"""Pause between position polls while waiting for motion. Each poll is a query per axis still
+on its way, about 11 ms each of a 9600-baud line, so the line sets the pace; the pause only
+yields to others."""
 STALL_SECONDS = 0.25
 """No change for this long means the head stopped (7 positions even at the 31 pos/s floor)."""
 
@@ -183,7 +184,14 @@ class CommandedPtu(PanTiltUnit):
     # -- verbs ---------------------------------------------------------------------------
 
     async def position(self) -> PtuPosition:
-        pan, tilt = await self._axis_position(0), await self._axis_position(1)
+        return await self._poll((0, 1))
+
+    async def _poll(self, axes: tuple[int, ...]) -> PtuPosition:
+        """Query ``axes``; the others keep the positions last read."""
+        now = list(self._last)
+        for i in axes:
+            now[i] = await self._axis_position(i)
+        pan, tilt = now
         moving = (pan, tilt) != self._last or any(
             t is not None and t != p for t, p in zip(self._target, (pan, tilt), strict=True)
         )
@@ -230,9 +238,10 @@ class CommandedPtu(PanTiltUnit):
         loop = asyncio.get_running_loop()
         changed_at = loop.time()
         last = self._last
+        axes: tuple[int, ...] = (0, 1)
         async with asyncio.timeout(timeout):
             while True:
-                here = await self.position()
+                here = await self._poll(axes)
                 now = loop.time()
                 if (here.pan_pos, here.tilt_pos) != last:
                     last, changed_at = (here.pan_pos, here.tilt_pos), now
@@ -240,6 +249,9 @@ class CommandedPtu(PanTiltUnit):
                 # reaching it means stopped; no second poll to confirm.
                 if all(t is None or t == p for t, p in zip(self._target, last, strict=True)):
                     return self._as_position(*last, moving=False)
+                # An axis seen on its target has stopped there: only the others are asked
+                # again, so a one-axis move's stop is seen in half the line's time.
+                axes = tuple(i for i in (0, 1) if self._target[i] not in (None, last[i]))
                 if now - changed_at >= STALL_SECONDS:
                     # Stopped short of the target: a halt, a mechanical stop, a stall.
                     self._target = list(last)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import re
 import time
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -103,6 +104,9 @@ class Ptu46Emulator:
         self._unit_id = 0
         self._selected = True
         self.commands_seen = 0
+        self.executed: Counter[str] = Counter()
+        """How often each known command (its letters: ``PP``, ``TP``, ``H``) was run, set
+        or query alike: which the driver sends, for tests to read."""
 
     def _axis(self, name: str, letter: str, lo: int, hi: int, res: float) -> _AxisState:
         m = self.model
@@ -205,6 +209,7 @@ class Ptu46Emulator:
         handler = HANDLERS.get(m.group(1)) if m else None
         if m is None or handler is None:
             return self._line("! " + self.model.illegal_message)
+        self.executed[m.group(1)] += 1
         result = handler(self, _int(m.group(2)))
         if result is None:  # deferred until motion ends, or nothing to say
             return b""

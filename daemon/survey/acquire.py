@@ -69,6 +69,9 @@ class Acquisition:
     """Seconds for the tripod to settle once the head stops."""
     timing: dict[str, float]
     progress: Callable[..., None]
+    stitcher: Stitcher | None = None
+    """The last registered mosaic's, once :meth:`tiles` composed it: chips are aimed through
+    the tiles that show their targets (:meth:`Stitcher.correction_at`)."""
 
     async def _settle_and_grab(self) -> tuple[PtuPosition, Frame]:
         """Wait for the head to stop (and the tripod to settle), then take a frame."""
@@ -92,6 +95,7 @@ class Acquisition:
         order = geometry.serpentine()
         ptu = self.rig.ptu
         stitcher = Stitcher(geometry) if isinstance(geometry, SphericalMosaic) else None
+        self.stitcher = None
         put: Callable[[_Pending], dict[str, Any]] = (
             functools.partial(_register, stitcher)
             if stitcher is not None
@@ -129,6 +133,7 @@ class Acquisition:
                 tc = time.perf_counter()
                 mosaic = await asyncio.to_thread(stitcher.compose)
                 self.timing["compose_s"] = time.perf_counter() - tc
+                self.stitcher = stitcher
         except asyncio.CancelledError:
             if last is not None:
                 _archive(station, last, fields)
@@ -153,19 +158,24 @@ class Acquisition:
         frame; each chip is saved and published while the head already moves to the next.
         A point marked "no further target" (``target`` false) is not looked at again.
 
+        A point's angles are in the mosaic's frame; on a registered mosaic the head is sent
+        there through the tile that shows it (:attr:`stitcher`), as that tile's pose was off.
         With a ``reference`` (the station's mosaic and geometry) each chip is registered to
         it and, if off its target by more than ``refine.CORRECTION_THRESHOLD``, the head is
-        corrected once and the chip retaken; the chip's record says how far off it was."""
+        corrected once and the chip retaken; the chip's record says how far off it was and
+        the tile's correction it was aimed through (``tile_correction_deg``)."""
         ptu = self.rig.ptu
         chosen = [p for p in points if p.target][:CHIPS]
         saving: asyncio.Task[Chip] | None = None
         for k, point in enumerate(chosen):
             self.progress("chips", k, len(chosen))
             came_from, target = self.rig.pose, (point.pan, point.tilt)
-            self.timing["predicted_motion_s"] += ptu.predict_move_time(*target)
-            await ptu.move_to(*target, wait=False)
+            shift = (0.0, 0.0) if self.stitcher is None else self.stitcher.correction_at(*target)
+            goal = (target[0] - shift[0], target[1] - shift[1])
+            self.timing["predicted_motion_s"] += ptu.predict_move_time(*goal)
+            await ptu.move_to(*goal, wait=False)
             self.rig.mark_moving()
-            view = None if reference is None else self._expect(target, target, reference)
+            view = None if reference is None else self._expect(goal, shift, target, reference)
             try:
                 if saving is not None:
                     publish(await saving)
@@ -173,7 +183,7 @@ class Acquisition:
                 centring: dict[str, object] = {}
                 if reference is not None and view is not None:
                     position, frame, centring = await self._centre(
-                        point, came_from, position, frame, reference=reference, view=view
+                        point, came_from, position, frame, shift, reference=reference, view=view
                     )
             finally:
                 if view is not None:
@@ -197,12 +207,14 @@ class Acquisition:
     def _expect(
         self,
         goal: tuple[float, float],
+        shift: tuple[float, float],
         target: tuple[float, float],
         reference: tuple[np.ndarray, MosaicGeometry],
     ) -> asyncio.Task[View | None]:
         """Warp the mosaic to what a chip of ``target`` should show from where the head
-        lands for ``goal``, while it is on its way there (``refine.expect``)."""
-        pose, size = self.rig.landing(*goal), self.rig.camera.resolution
+        lands for ``goal`` (that pose plus ``shift`` in the mosaic's frame), while it is on
+        its way there (``refine.expect``)."""
+        pose, size = _shifted(self.rig.landing(*goal), shift), self.rig.camera.resolution
         return asyncio.create_task(
             asyncio.to_thread(expect, pose, target, size, *reference),
             name="cyborgd.survey.expect",
@@ -214,33 +226,36 @@ class Acquisition:
         came_from: PtuPosition,
         position: PtuPosition,
         frame: Frame,
+        shift: tuple[float, float],
         *,
         reference: tuple[np.ndarray, MosaicGeometry],
         view: asyncio.Task[View | None],
     ) -> tuple[PtuPosition, Frame, dict[str, object]]:
         """Measure a chip's centring on the mosaic (``view``: the mosaic warped to where the
-        head was to land); correct the head once and retake it if it is off, arriving from
-        the side it came from (backlash). The chip kept, and its record: ``before_deg``,
-        ``after_deg`` (the kept chip's; None: not measurable), ``confidence``,
-        ``uncertainty_deg`` (of ``before_deg``), ``corrected``."""
+        head was to land, its pose plus ``shift`` in the mosaic's frame); correct the head
+        once and retake it if it is off, arriving from the side it came from (backlash). The
+        chip kept, and its record: ``before_deg``, ``after_deg`` (the kept chip's; None: not
+        measurable), ``confidence``, ``uncertainty_deg`` (of ``before_deg``), ``corrected``,
+        ``tile_correction_deg``."""
         target = (point.pan, point.tilt)
-        before = await _measure(await view, position, frame, target, reference)
+        before = await _measure(await view, _shifted(position, shift), frame, target, reference)
         error = None if before is None else round(before.error, 4)
         record: dict[str, object] = {"before_deg": error, "after_deg": error, "corrected": False}
         record["confidence"] = 0.0 if before is None else round(before.confidence, 3)
         record["uncertainty_deg"] = None if before is None else round(before.uncertainty, 4)
+        record["tile_correction_deg"] = [round(v, 5) for v in shift]
         if before is None or not before.needs_correction:
             return position, frame, record
         here = (position.pan, position.tilt)
         goal = (here[0] + before.offset[0], here[1] + before.offset[1])
         ptu = self.rig.ptu
-        view = self._expect(goal, target, reference)
+        view = self._expect(goal, shift, target, reference)
         try:
             for pan, tilt in approach(here, (came_from.pan, came_from.tilt), goal):
                 self.timing["predicted_motion_s"] += ptu.predict_move_time(pan, tilt)
                 await self.rig.move_to(pan, tilt)
             position, frame = await self._settle_and_grab()
-            after = await _measure(await view, position, frame, target, reference)
+            after = await _measure(await view, _shifted(position, shift), frame, target, reference)
         except PtuLimitError as exc:  # the chip already taken stands
             _LOGGER.info("chip %d not corrected: %s", point.rank, exc)
             return position, frame, record
@@ -250,17 +265,25 @@ class Acquisition:
         return position, frame, record
 
 
+def _shifted(
+    pose: PtuPosition | tuple[float, float], shift: tuple[float, float]
+) -> tuple[float, float]:
+    """A pose the head reports, in the mosaic's frame: ``shift`` (the correction of the tile
+    it is aimed through) added."""
+    pan, tilt = (pose.pan, pose.tilt) if isinstance(pose, PtuPosition) else pose
+    return pan + shift[0], tilt + shift[1]
+
+
 async def _measure(
     view: View | None,
-    position: PtuPosition,
+    pose: tuple[float, float],
     frame: Frame,
     target: tuple[float, float],
     reference: tuple[np.ndarray, MosaicGeometry],
 ) -> Centring | None:
     """``frame``'s centring on ``view``, or on a view made anew if the head reported
-    another pose than the one it was to land at (a stall, a mechanical stop) or the frame is
-    of another size."""
-    pose = (position.pan, position.tilt)
+    another ``pose`` (in the mosaic's frame) than the one it was to land at (a stall, a
+    mechanical stop) or the frame is of another size."""
     height, width = frame.image.shape[:2]
     if view is None or view.pose != pose or view.size != (width, height):
         view = await asyncio.to_thread(expect, pose, target, (width, height), *reference)

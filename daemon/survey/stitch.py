@@ -24,7 +24,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from ..pointing.geometry import MosaicGeometry, SphericalMosaic
+from ..pointing.geometry import MosaicGeometry, SphericalMosaic, pixel_index
 
 __all__ = ["Stitcher", "TileFit", "no_data", "rotation", "uncovered"]
 
@@ -353,6 +353,27 @@ class Stitcher:
         mosaic[~covered] = 0
         self.owners[~covered] = -1
         return mosaic
+
+    def correction_at(self, pan: float, tilt: float) -> tuple[float, float]:
+        """The registration correction (degrees) of the tile the composed mosaic shows at
+        (pan, tilt) in its frame; (0, 0) where none does.
+
+        The canvas's frame is the first tile's, off the world by that tile's pointing error;
+        each later tile's correction is how far its own head pose was off from that. A
+        head's error is repeatable (gears, mount: ``ptu.emulator_errors``), so a head sent
+        to a target less the correction of the tile that shows it lands as that tile did
+        (``bench.chips``, registered mosaics: a first chip's error 0.363° → 0.180° median,
+        the refined chips' p95 0.059° → 0.045°, the corrections shorter)."""
+        at = self.geometry.to_mosaic(pan, tilt)
+        if at is None:
+            return 0.0, 0.0
+        height, width = self.owners.shape
+        x, y = (
+            min(max(round(pixel_index(v)), 0), n - 1)
+            for v, n in zip(at, (width, height), strict=True)
+        )
+        k = int(self.owners[y, x])
+        return (0.0, 0.0) if k < 0 else self.tiles[k][1].correction_deg
 
     def _measure_vignetting(self) -> np.ndarray | None:
         """The lens's falloff as the overlaps show it, or None: a point of the world seen by

@@ -330,3 +330,16 @@ async def test_emulator_command_runs_as_a_process(tmp_path: Path) -> None:
             proc.kill()
             await proc.wait()
     assert os.path.exists("/dev/ptmx")
+
+
+async def test_only_an_axis_still_on_its_way_is_polled() -> None:
+    """An axis seen on its target has stopped there (a trapezoid never overshoots), so a
+    pan-only move asks the tilt once, and the stop is seen in half the line's time."""
+    async with PtyPtu(Ptu46Emulator(), baud=0) as unit:  # real time: a 10° move, ~0.25 s
+        executed = unit.server.emulator.executed
+        before = executed.copy()
+        here = await unit.move_to(pan=10.0)
+        assert here.pan == pytest.approx(10.0, abs=0.026) and not here.moving
+        asked = executed - before
+        assert asked["PP"] >= 3  # the command, then polls until the stop is seen
+        assert asked["TP"] == 1

@@ -84,3 +84,17 @@ async def test_a_butted_neighbour_off_by_its_own_error_does_not_pull_the_measure
     found = measure((await camera.grab()).image, target, target, mosaic, geometry)
     assert found is not None and found.trusted
     assert found.offset == pytest.approx((-0.2, 0.15), abs=0.01)
+
+
+async def test_chips_on_a_registered_mosaic_are_aimed_through_their_tiles() -> None:
+    """A point's angles are in the mosaic's frame, the first tile's; the head is sent there
+    less the registration's correction of the tile that shows it, as that tile's pose was
+    off (a head's error is repeatable), and the chip's record says by how much."""
+    plain, refined = await station_chips(0, overlap=0.3)
+    step = 185.1428 / 3600.0
+    shifts = [c.centring["tile_correction_deg"] for c in refined]
+    assert max(float(np.hypot(*s)) for s in shifts) > 2 * step  # tiles were off the first
+    for chip, shift in zip(plain, shifts, strict=True):
+        goal = (chip.point.pan - shift[0], chip.point.tilt - shift[1])
+        assert abs(chip.chip.pan - goal[0]) <= step / 2 + 1e-6
+        assert abs(chip.chip.tilt - goal[1]) <= step / 2 + 1e-6

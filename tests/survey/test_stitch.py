@@ -150,3 +150,15 @@ async def test_the_lens_falloff_is_measured_on_the_overlaps_and_divided_out(
         assert corner == 0.0
     else:
         assert np.abs(measured - vignette(*measured.shape, corner)).max() < 0.03
+
+
+async def test_a_point_is_reached_through_the_correction_of_the_tile_that_shows_it() -> None:
+    camera = SimulatedCamera.from_url("sim://outcrop?seed=5&noise=2")
+    g = SphericalMosaic(CAM, 2, 3, 10.0, 2.0, 4.0, overlap=0.3)
+    stitcher, _ = await _stitch(camera, g, _errors(6, 1))
+    for k, (_, fit) in enumerate(stitcher.tiles):
+        where = g.to_mosaic(*fit.placed)  # the middle of tile k, which it alone shows
+        assert where is not None and stitcher.owners[int(where[1]), int(where[0])] == k
+        assert stitcher.correction_at(*fit.placed) == fit.correction_deg
+    assert any(fit.correction_deg != (0.0, 0.0) for _, fit in stitcher.tiles)
+    assert stitcher.correction_at(10.0 + 90.0, 2.0) == (0.0, 0.0)  # off the canvas
