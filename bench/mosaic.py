@@ -17,14 +17,21 @@ head truly looked for each tile.
   butted grid's lines; the seam finder's cuts), with the share of the mosaic such bands
   cover for scale (the rate a point dropped at random would have), and the share of all
   top-3 points on a seam (against that band share: above it, seams draw the science).
+- **registered** goes through the survey's loop: composed, analysed, and while a top-3
+  point is near a seam (``Stitcher.keep_off``, at most ``KEEP_OFF_ROUNDS`` times) the seams
+  are cut again around every point found so far, and the mosaic composed and analysed
+  again; judged on the last mosaic and its seams. **reg. 1st pass** is its first mosaic
+  and seams, before any re-cut.
 - **seamless**: the floor. The same world drawn straight onto the registered canvas (one
   flawless frame, no seams, no-data where the mosaic has none) and judged on the registered
-  mosaic's seam bands: how often the world alone puts a top-3 point there. With bands
-  ``2 * SEAM_PX`` wide covering ~6 % of a 2x3 mosaic, three points land on one by chance in
-  about 1 - 0.94^3 = 17 % of mosaics.
+  mosaic's (last) seam bands: how often the world alone puts a top-3 point there. With
+  bands ``2 * SEAM_PX`` wide covering ~6 % of a 2x3 mosaic, three points land on one by
+  chance in about 1 - 0.94^3 = 17 % of mosaics.
 - **reg. as shot**: registered without the flat field (``Stitcher(flatten=False)``): each
   frame's vignetting left in, a step at every seam the gains cannot take off.
-- **compose**: CPU seconds to register and compose a mosaic.
+- **compose**: CPU seconds to register and compose a mosaic (the first time); the re-cuts
+  line gives how many mosaics needed one and the CPU milliseconds of a ``keep_off`` call
+  (one that re-cut, one that did not), of composing again and of the analysis.
 - **no-data**: in how many registered mosaics some pixels no frame covers (exact:
   ``stitch.uncovered``) are missed by the science's own no-data rule (``vision.nodata``:
   fill connected to the edge and at least 0.25 % of the view), and how many pixels.
@@ -62,7 +69,8 @@ from cyborg.daemon.pointing.geometry import (
 )
 from cyborg.daemon.ptu.emulated import EmulatedPtu
 from cyborg.daemon.sim.camera_effects import radial_undistort
-from cyborg.daemon.survey.stitch import Stitcher, uncovered
+from cyborg.daemon.survey.stitch import KEEP_OFF_ROUNDS, Stitcher, uncovered
+from cyborg.daemon.vision.interest import InterestPoint
 from cyborg.daemon.vision.job import analyze_image, input_points
 from cyborg.daemon.vision.nodata import no_data_mask
 from cyborg.daemon.vision.params import profile
@@ -181,10 +189,9 @@ def _seamless(panorama: Panorama, g: SphericalMosaic, covered: np.ndarray) -> np
 
 def _projected(
     shots: list[Shot], g: SphericalMosaic, register: bool, flatten: bool = True
-) -> tuple[np.ndarray, list[float], np.ndarray, float, np.ndarray]:
+) -> tuple[Stitcher, np.ndarray, list[float], float]:
     """The overlapping mosaic from the recorded poses, registered or not, flat-fielded or
-    not; each seam's residual, the seam bands, the CPU seconds it took and the pixels it
-    covers."""
+    not: its stitcher, the mosaic, each seam's residual and the CPU seconds it took."""
     t0 = time.process_time()
     stitcher = Stitcher(g, register=register, flatten=flatten)
     placed = {}
@@ -205,18 +212,59 @@ def _projected(
         xt, yt = (v[both] for v in pixels[t.row, t.col])
         a, b = _true_angles(xs, ys, s.true), _true_angles(xt, yt, t.true)
         residuals.append(float(np.median(_apart(a, b, g.degrees_per_pixel))))
-    owners = stitcher.owners.astype(np.float32)
+    return stitcher, mosaic, residuals, cpu
+
+
+def _band(owners: np.ndarray) -> np.ndarray:
+    """The seam bands of a stitched mosaic's ``owners``: within ``SEAM_PX`` of where the
+    tile changes."""
+    owners = owners.astype(np.float32)
     kernel = np.ones((2 * SEAM_PX + 1, 2 * SEAM_PX + 1), np.uint8)
     band = (cv2.dilate(owners, kernel) != cv2.erode(owners, kernel)) & (owners >= 0)
     band &= cv2.erode(owners, kernel) >= 0  # where tiles meet, not the edge of the no-data
-    return mosaic, residuals, band, cpu, stitcher.owners >= 0
+    return band
 
 
-def _on_seam(mosaic: np.ndarray, band: np.ndarray, dump: Path | None = None) -> int:
-    """How many of the ``default`` profile's first points lie on a seam band; when one does
-    and ``dump`` is given, the mosaic is written there with the band and points drawn."""
+def _top(mosaic: np.ndarray, cpu: list[float] | None = None) -> list[InterestPoint]:
+    """The ``default`` profile's first points on ``mosaic`` (its CPU seconds to ``cpu``)."""
+    t0 = time.process_time()
     bgr, res = analyze_image(mosaic, profile("default"))
-    points = input_points(bgr.shape, res)[:TOP]
+    if cpu is not None:
+        cpu.append(time.process_time() - t0)
+    return input_points(bgr.shape, res)[:TOP]
+
+
+def _keep_off(
+    stitcher: Stitcher, mosaic: np.ndarray, points: list[InterestPoint], cpu: dict[str, list]
+) -> tuple[np.ndarray, list[InterestPoint], int]:
+    """The survey's loop: while a seam passes near a top point (at most ``KEEP_OFF_ROUNDS``
+    times), cut the seams off every point found so far, compose and analyse again. The last
+    mosaic, its points and how many re-cuts it took; CPU seconds go to ``cpu``."""
+    kept = [(p.x, p.y) for p in points]
+    rounds = 0
+    for _ in range(KEEP_OFF_ROUNDS):
+        t0 = time.process_time()
+        moved = stitcher.keep_off(kept)
+        cpu["keep_off" if moved else "kept off"].append(time.process_time() - t0)
+        if not moved:
+            break
+        t0 = time.process_time()
+        mosaic = stitcher.compose()
+        cpu["compose"].append(time.process_time() - t0)
+        points = _top(mosaic, cpu["analysis"])
+        kept = [(p.x, p.y) for p in points] + kept  # the latest points first
+        rounds += 1
+    return mosaic, points, rounds
+
+
+def _on_seam(
+    mosaic: np.ndarray,
+    band: np.ndarray,
+    points: list[InterestPoint],
+    dump: Path | None = None,
+) -> int:
+    """How many of ``points`` lie on a seam band; when one does and ``dump`` is given, the
+    mosaic is written there with the band and points drawn."""
     on = sum(
         0 <= round(p.y) < band.shape[0]
         and 0 <= round(p.x) < band.shape[1]
@@ -249,21 +297,29 @@ def main(argv: list[str] | None = None) -> int:
         "reg. as shot": (True, False),
         "registered": (True, True),
     }
-    methods = ("butted", *projected, "seamless")
+    methods = ("butted", "pose only", "reg. as shot", "reg. 1st pass", "registered", "seamless")
     residuals: dict[str, list[float]] = {m: [] for m in methods}
     hits, points = dict.fromkeys(methods, 0), dict.fromkeys(methods, 0)
     share: dict[str, list[float]] = {m: [] for m in methods}
     cpu: dict[str, list[float]] = {m: [] for m in projected}
+    recut: dict[str, list[float]] = {k: [] for k in ("keep_off", "kept off", "compose", "analysis")}
+    rounds = [0] * (KEEP_OFF_ROUNDS + 1)
     void = {"mosaics": 0, "missed in": 0, "pixels": 0, "missed": 0}
     for seed in range(args.first_seed, args.first_seed + args.scenes):
         panorama = outcrop_panorama(seed, n_targets=0)
         mosaic, res, band = _butted(asyncio.run(_shoot(panorama, butted, seed)), butted)
-        results = {"butted": (mosaic, res, band)}
+        results = {"butted": (mosaic, res, band, _top(mosaic))}
         shots = asyncio.run(_shoot(panorama, overlapping, seed))
         for name, (register, flatten) in projected.items():
-            mosaic, res, band, seconds, covered = _projected(shots, overlapping, register, flatten)
-            results[name] = (mosaic, res, band)
+            stitcher, mosaic, res, seconds = _projected(shots, overlapping, register, flatten)
             cpu[name].append(seconds)
+            top = _top(mosaic, recut["analysis"] if name == "registered" else None)
+            if name == "registered":
+                results["reg. 1st pass"] = (mosaic, res, _band(stitcher.owners), top)
+                mosaic, top, n_recut = _keep_off(stitcher, mosaic, top, recut)
+                rounds[n_recut] += 1
+                covered = stitcher.owners >= 0
+            results[name] = (mosaic, res, _band(stitcher.owners), top)
         gap = uncovered(results["registered"][0])
         found = no_data_mask(results["registered"][0])
         missed = gap if found is None else gap & ~found
@@ -272,16 +328,20 @@ def main(argv: list[str] | None = None) -> int:
         void["pixels"] += int(gap.sum())
         void["missed"] += int(missed.sum())
         # The floor: the registered mosaic's seams over the same world without them.
-        results["seamless"] = (_seamless(panorama, overlapping, covered), [], band)
-        for name, (mosaic, res, band) in results.items():
-            residuals[name].extend(res)
+        seamless = _seamless(panorama, overlapping, covered)
+        results["seamless"] = (seamless, [], results["registered"][2], _top(seamless))
+        for name in methods:
+            mosaic, res, band, top = results[name]
+            if name != "reg. 1st pass":  # its seams are the registered one's
+                residuals[name].extend(res)
             share[name].append(float(band.mean()))
             dump = None if args.dump is None else args.dump / f"{seed}-{name.replace(' ', '-')}.png"
-            on = _on_seam(mosaic, band, dump)
+            on = _on_seam(mosaic, band, top, dump)
             hits[name] += on > 0
             points[name] += on
         print(
-            f"scene {seed}: " + ", ".join(f"{m} {max(results[m][1]):.2f}" for m in methods[:-1]),
+            f"scene {seed}: "
+            + ", ".join(f"{m} {max(results[m][1]):.2f}" for m in ("butted", *projected)),
             "px worst seam",
             file=sys.stderr,
         )
@@ -308,8 +368,15 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{m:<12} {seam} {rates[0]} {rates[1]} {statistics.mean(share[m]):10.1%} {seconds}")
     print(
         "seamless: the same world drawn straight onto the canvas, judged on the registered "
-        "mosaic's seams (the rate the world alone gives); points on seam: the share of all "
+        "mosaic's last seams (the rate the world alone gives); points on seam: the share of all "
         "top-3 points there, to compare with the seam share (what chance gives)"
+    )
+    ms = {k: 1000 * statistics.median(v) if v else math.nan for k, v in recut.items()}
+    print(
+        f"re-cuts (registered): {n - rounds[0]}/{n} mosaics had a seam near a top-3 point "
+        f"({rounds[-1]} of them {KEEP_OFF_ROUNDS} times); CPU ms median: keep_off "
+        f"{ms['keep_off']:.0f} when it re-cut, {ms['kept off']:.1f} when not; compose again "
+        f"{ms['compose']:.0f}; analysis {ms['analysis']:.0f}"
     )
     print(
         f"no-data (registered): {void['mosaics']}/{n} mosaics have pixels no frame covers "

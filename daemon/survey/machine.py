@@ -12,12 +12,16 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
+import functools
 import logging
 import time
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from cyborg.protocol.messages import Chip, ChooseTarget, InterestResult, SurveyProgress, SurveyStart
 
@@ -26,16 +30,16 @@ from ..camera import CameraError
 from ..pointing.geometry import CameraModel, MosaicGeometry
 from ..ptu import PtuError
 from ..rig import Rig
-from ..vision.contract import AnalysisResult, PointsJob, ProductsJob
+from ..vision.contract import Analysed, AnalysisResult, PointsJob, ProductsJob
 from ..worker import VisionWorker, WorkerError
-from .acquire import Acquisition, check_reach
+from .acquire import CHIPS, Acquisition, check_reach
 from .analysis import check_profile, interest_points
 from .approach import Approach, advice
 from .memory import SessionMemory
 from .register import register_to
 from .report import update_report
 from .site import Orientation, locate
-from .stitch import no_data
+from .stitch import KEEP_OFF_ROUNDS, Stitcher, no_data
 
 if TYPE_CHECKING:  # config imports the survey package (its site)
     from ..config import SurveyConfig
@@ -262,6 +266,8 @@ class Survey:
                     no_data(mosaic, geometry),
                 )
                 analysed = await self.worker.call(job)
+            if shots.stitcher is not None:
+                mosaic, analysed = await self._seams_off(station, shots.stitcher, job, analysed)
             timing["analysis_s"] = self._analysis_estimate = time.perf_counter() - ta
             # The worker draws and writes the products while the head goes to the chips.
             drawing = asyncio.create_task(
@@ -307,6 +313,27 @@ class Survey:
                 station, "failed", f"internal error: {exc!r}", timing, t0, drawing=drawing
             )
             self.tel.event("error", f"station {self.station_id} failed: internal error {exc!r}")
+
+    async def _seams_off(
+        self, station: Station, stitcher: Stitcher, job: PointsJob, analysed: Analysed
+    ) -> tuple[np.ndarray, Analysed]:
+        """Cut a registered mosaic's seams again off the points the science found and look
+        again, while a seam passes near one (``Stitcher.keep_off``, at most
+        ``KEEP_OFF_ROUNDS`` times): what the scientist will look at is drawn from one frame,
+        not blended across a seam. The mosaic archived, analysed and remembered is the last;
+        the manifest's ``seams`` says how many times they were cut again."""
+        mosaic, rounds, kept = job.image, 0, list[tuple[float, float]]()
+        for _ in range(KEEP_OFF_ROUNDS):
+            kept = [(p.x, p.y) for p in analysed.result.points[:CHIPS]] + kept  # newest first
+            if not await asyncio.to_thread(stitcher.keep_off, kept):
+                break
+            mosaic = await asyncio.to_thread(stitcher.compose)
+            job = dataclasses.replace(job, image=mosaic, no_data=no_data(mosaic, stitcher.geometry))
+            async with _alongside(functools.partial(station.write_png, "mosaic.png", mosaic)):
+                analysed = await self.worker.call(job)
+            rounds += 1
+        station.update(seams={"cut_again": rounds})
+        return mosaic, analysed
 
     async def _products(self, job: ProductsJob, timing: dict[str, float]) -> AnalysisResult:
         """Have the worker write an analysis's products; ``products_s`` says how long."""

@@ -1,7 +1,8 @@
 """A registered mosaic: overlapping frames projected onto one spherical canvas from the
 poses the head recorded, each pose refined on the frames placed before it, the lens's
 vignetting measured on the overlaps and divided out, gains compensated and seams blended
-(OpenCV's ``detail`` module, as its stitching pipeline uses it).
+(OpenCV's ``detail`` module, as its stitching pipeline uses it); once the science has
+looked, the seams can be cut again off what it found, so that is drawn from one frame.
 
 Registration is seeded by the pose and only ever corrects it: a frame is moved by the ECC
 translation that best aligns it with its already placed neighbours on their overlap, and
@@ -18,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -26,7 +28,15 @@ import numpy as np
 
 from ..pointing.geometry import MosaicGeometry, SphericalMosaic, pixel_index
 
-__all__ = ["Stitcher", "TileFit", "no_data", "rotation", "uncovered"]
+__all__ = [
+    "KEEP_OFF_PX",
+    "KEEP_OFF_ROUNDS",
+    "Stitcher",
+    "TileFit",
+    "no_data",
+    "rotation",
+    "uncovered",
+]
 
 _LOGGER = logging.getLogger(__name__)
 
@@ -70,6 +80,16 @@ cliff's shading rather than the lens's)."""
 _FLAT_CEILING = 1.02
 """Brightest a measured falloff may make any part of a frame relative to its centre: a lens
 does not brighten its corners, a fit does only by noise or the cliff's shading."""
+KEEP_OFF_PX = 8.0
+"""Clearance (mosaic pixels) :meth:`Stitcher.keep_off` keeps seams from a point: past
+``bench.mosaic``'s 3 px seam band (up to 3√2 px away, it is square) by the reach of the
+blend, which mixes two frames' detail up to ~5 px either side of a seam (its bands on the
+2x- and 4x-reduced masks; the finest is cut sharp, the 8x one is shading, not detail); and
+room for the point to move a few pixels when the mosaic is composed again."""
+KEEP_OFF_ROUNDS = 2
+"""Most times a survey re-cuts the seams off its top points (:meth:`Stitcher.keep_off`) and
+analyses the mosaic again: the recomposed mosaic's points are mostly the first ones, kept
+off; a second round keeps off those that moved or replaced them."""
 _ECC = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 60, 1e-4)
 _LEAST = 1
 """Level a covered pixel blended to pure black is lifted to (every channel): one grey level
@@ -149,7 +169,8 @@ class _Warped:
 class Stitcher:
     """Places frames one at a time (:meth:`add`: registered on those placed before, warped,
     and its seams with them cut, while the head moves to the next), then composes the mosaic
-    (:meth:`compose`: gains and blending, which need every frame)."""
+    (:meth:`compose`: gains and blending, which need every frame); :meth:`keep_off` cuts
+    the seams again off the points the science found, for :meth:`compose` to draw anew."""
 
     def __init__(
         self,
@@ -190,11 +211,13 @@ class Stitcher:
         """A frame at the mosaic's scale, as the butted mosaic reduces it."""
         return cv2.resize(image, self.geometry.tile_size, interpolation=cv2.INTER_AREA)
 
-    def _warp(self, small: np.ndarray, pose: tuple[float, float]) -> _Warped:
-        """``small`` projected from ``pose``: its corner on the canvas, image and mask (its
-        own no-data excluded, the bilinear rim eroded)."""
+    def _warp(
+        self, small: np.ndarray, pose: tuple[float, float], border: int = cv2.BORDER_CONSTANT
+    ) -> _Warped:
+        """``small`` projected from ``pose``: its corner on the canvas, image (``border``
+        beyond the frame) and mask (its own no-data excluded, the bilinear rim eroded)."""
         r = rotation(*pose)
-        corner, image = self._warper.warp(small, self._k, r, cv2.INTER_LINEAR, cv2.BORDER_CONSTANT)
+        corner, image = self._warper.warp(small, self._k, r, cv2.INTER_LINEAR, border)
         valid = np.where(small.any(axis=2), 255, 0).astype(np.uint8)
         _, mask = self._warper.warp(valid, self._k, r, cv2.INTER_NEAREST, cv2.BORDER_CONSTANT)
         mask = cv2.erode(mask, np.ones((3, 3), np.uint8))
@@ -249,9 +272,9 @@ class Stitcher:
             fit = TileFit(row, col, pose, note="placed by its pose")
         warped = self._warp(small, fit.placed)
         self._paste(warped)
-        self._cut(warped, len(self.tiles), (-1.0) ** (row + col))
         self.tiles.append((small, fit))
         self._warped.append(warped)
+        self._cut(len(self.tiles) - 1)
         return fit
 
     def _register(
@@ -291,16 +314,22 @@ class Stitcher:
         self._reference[cr, cc][fresh] = grey[fresh]
         self._covered[cr, cc][fresh] = 255
 
-    def _cut(self, w: _Warped, k: int, sign: float) -> None:
+    def _cut(self, k: int, kept: np.ndarray | None = None) -> None:
         """Give tile ``k`` the pixels on its side of the graph-cut seam with the tiles shown
-        so far (all it covers where none is): :attr:`owners`."""
+        so far (all it covers where none is): :attr:`owners`. Where ``kept`` (canvas, a
+        tile index or -1) names a tile, only that tile may show the pixel: it takes it from
+        the tiles shown, and any other leaves it to them, so the seams pass around."""
+        w, fit = self._warped[k], self.tiles[k][1]
         win = self._window(w)
         if win is None:
             return
         cr, cc, wr, wc = win
-        cost = _seam_cost(w.image, sign)[wr, wc]
+        cost = _seam_cost(w.image, (-1.0) ** (fit.row + fit.col))[wr, wc]
         mask = np.where(w.mask[wr, wc] > 0, 255, 0).astype(np.uint8)
         shown = np.where(self.owners >= 0, 255, 0).astype(np.uint8)
+        if kept is not None:
+            mask[(kept[cr, cc] >= 0) & (kept[cr, cc] != k)] = 0
+            shown[kept == k] = 0
         if shown[cr, cc][mask > 0].any():
             _, cut = cv2.detail_GraphCutSeamFinder("COST_COLOR").find(
                 [self._shown, cost],
@@ -312,6 +341,57 @@ class Stitcher:
         self.owners[cr, cc][mine] = k
         self._shown[cr, cc][mine] = cost[mine]
 
+    def keep_off(self, points: Sequence[tuple[float, float]], radius: float = KEEP_OFF_PX) -> bool:
+        """Whether a seam of :attr:`owners` passes within ``radius`` mosaic pixels of one of
+        ``points`` ((x, y) canvas pixel indices, as the science gives them, the first most
+        worth keeping); if one does, every seam is cut again, in the order the tiles came,
+        each point's surroundings given whole to one frame that shows them all (the one
+        showing the point now if it can), as a panorama editor's masks keep a subject in
+        one frame: the graph cut routes the seams around them. :meth:`compose` then gives
+        the new mosaic and owners. Where no frame shows all of a point's surroundings (a
+        rim against the no-data, a corner three frames barely share) or an earlier point
+        took some, the frame covering the most keeps what it can, and the log says so."""
+        discs = [self._disc(x, y, radius) for x, y in points]
+        if not any(_seamed(self.owners[disc]) for disc in discs):
+            return False
+        coverage = np.stack([self._coverage(k) for k in range(len(self.tiles))])
+        kept = np.full(self.owners.shape, -1, np.int16)
+        for (x, y), disc in zip(points, discs, strict=True):
+            owner = int(
+                self.owners[_clamp(round(y), kept.shape[0]), _clamp(round(x), kept.shape[1])]
+            )
+            if not _keep(kept, coverage, disc, owner):
+                _LOGGER.info(
+                    "no frame can show all within %g px of (%.0f, %.0f): a seam may pass there",
+                    radius,
+                    x,
+                    y,
+                )
+        self.owners.fill(-1)
+        self._shown.fill(0.0)
+        for k in range(len(self.tiles)):
+            self._cut(k, kept)
+        return True
+
+    def _disc(self, x: float, y: float, radius: float) -> tuple[np.ndarray, np.ndarray]:
+        """The canvas pixels within ``radius`` of (x, y): their (rows, cols) indices."""
+        height, width = self.owners.shape
+        r0, c0 = max(math.ceil(y - radius), 0), max(math.ceil(x - radius), 0)
+        r1 = min(math.floor(y + radius) + 1, height)
+        c1 = min(math.floor(x + radius) + 1, width)
+        yy, xx = np.mgrid[r0 : max(r1, r0), c0 : max(c1, c0)]
+        inside = (xx - x) ** 2 + (yy - y) ** 2 <= radius * radius
+        return yy[inside], xx[inside]
+
+    def _coverage(self, k: int) -> np.ndarray:
+        """The canvas pixels tile ``k`` covers, (M, N) bool."""
+        out = np.zeros(self.owners.shape, bool)
+        win = self._window(self._warped[k])
+        if win is not None:
+            cr, cc, wr, wc = win
+            out[cr, cc] = self._warped[k].mask[wr, wc] > 0
+        return out
+
     def compose(self) -> np.ndarray:
         """The mosaic: every frame from its placed pose, flat-fielded (:attr:`vignetting`),
         gains compensated, seams found and blended; black where no frame reaches and
@@ -321,15 +401,20 @@ class Stitcher:
         width, height = self.geometry.size
         if not self.tiles:
             return np.zeros((height, width, 3), np.uint8)
-        warped = self._warped
         if self.flatten:
             self.vignetting = self._measure_vignetting()
-        if self.vignetting is not None:
-            flat = self.vignetting[..., None]
-            warped = [
-                self._warp(np.clip(small / flat + 0.5, 0, 255).astype(np.uint8), fit.placed)
-                for small, fit in self.tiles
-            ]
+        flat = 1.0 if self.vignetting is None else self.vignetting[..., None]
+        # Reflected beyond each frame, as OpenCV's stitcher warps: the blend's coarser bands
+        # reach past a seam, and a frame's black surround would darken it along the frame's
+        # edge, a line the science takes for a feature.
+        warped = [
+            self._warp(
+                np.clip(small / flat + 0.5, 0, 255).astype(np.uint8),
+                fit.placed,
+                cv2.BORDER_REFLECT,
+            )
+            for small, fit in self.tiles
+        ]
         compensator = cv2.detail.BlocksGainCompensator()
         compensator.feed(
             corners=[w.corner for w in warped],
@@ -470,6 +555,38 @@ def _seam_cost(image: np.ndarray, sign: float) -> np.ndarray:
     )
     edges = cv2.GaussianBlur(edges, (0, 0), _SEAM_REACH) * (_SEAM_EDGE / 8.0 * sign)
     return detail + edges[..., None]
+
+
+def _seamed(owners: np.ndarray) -> bool:
+    """Whether ``owners`` (tile indices, -1 for none) name more than one tile."""
+    return np.unique(owners[owners >= 0]).size > 1
+
+
+def _clamp(index: int, size: int) -> int:
+    """``index`` moved onto ``range(size)``."""
+    return min(max(index, 0), size - 1)
+
+
+def _keep(
+    kept: np.ndarray, coverage: np.ndarray, disc: tuple[np.ndarray, np.ndarray], owner: int
+) -> bool:
+    """Mark the covered pixels of ``disc`` in ``kept`` (canvas, tile index or -1) for the
+    one tile to show them: one that covers them all (``coverage``: (tiles, M, N) bool) and
+    agrees with what ``kept`` already says there, ``owner`` first; whether one could. Else
+    the tile covering the most keeps those pixels of it nothing is kept for yet."""
+    shows = coverage[:, disc[0], disc[1]]
+    covered = shows.any(axis=0)
+    here = kept[disc]
+    taken = here >= 0
+    counts = shows.sum(axis=1)
+    for k in sorted(range(len(shows)), key=lambda k: (k != owner, -counts[k])):
+        if shows[k][covered].all() and (here[taken] == k).all():
+            kept[disc[0][covered], disc[1][covered]] = k
+            return True
+    best = int(np.argmax(counts))
+    free = shows[best] & ~taken
+    kept[disc[0][free], disc[1][free]] = best
+    return False
 
 
 def _detail(grey: np.ndarray, mask: np.ndarray) -> np.ndarray:
