@@ -1,11 +1,12 @@
 """The survey state machine: plan, acquire, analyse, chips, choose, next station.
 
-One station: shoot an M×N mosaic of butted frames (``acquire``); register it to the station
-it was aimed from (``register``) and weigh it by what that one found (``memory``); hand it
-to the vision worker; re-point at the top three interest points for full-resolution chips
-while the worker draws and writes the analysis's products; publish the result and wait for
-the operator's choice. Choosing a target aims the next station at it, one step closer along
-the approach (``approach``).
+One station: shoot an M×N mosaic, butted or registered (``acquire``); register it to the
+station it was aimed from (``register``) and weigh it by what that one found (``memory``);
+hand it to the vision worker (a registered mosaic's seams are cut again off what the science
+found and the mosaic looked at again, ``stitch``); re-point at the top three interest points
+for full-resolution chips while the worker draws and writes the analysis's products; publish
+the result and wait for the operator's choice. Choosing a target aims the next station at
+it, one step closer along the approach (``approach``).
 """
 
 from __future__ import annotations
