@@ -20,6 +20,7 @@ import cv2
 import numpy as np
 
 from .interest import InterestMap, InterestPoint
+from .kernels import kernel
 from .order import median
 from .params import VisionParams
 
@@ -263,13 +264,38 @@ def band_discount(patch: np.ndarray, width: float) -> float:
     >>> band_discount((yy - 30) ** 2 + (xx - 100) ** 2 < 400, 2.0)
     1.0
     """
-    ys, xs = np.nonzero(patch)
-    if len(ys) < 3:
+    n, syy, sxx, sxy = _spread(patch)
+    if n < 3:
         return 1.0
-    across, along = np.sqrt(np.maximum(np.linalg.eigvalsh(np.cov(np.stack([ys, xs]))), 0.0))
+    half, gap = (syy + sxx) / 2.0, math.hypot((syy - sxx) / 2.0, sxy)  # the eigenvalues
+    across, along = math.sqrt(max(half - gap, 0.0)), math.sqrt(max(half + gap, 0.0))
     if across <= width:
         return 1.0
-    return min(1.0, float(across / along) / _BAND_ASPECT)
+    return min(1.0, across / along / _BAND_ASPECT)
+
+
+@kernel
+def _spread(patch: np.ndarray) -> tuple[int, float, float, float]:
+    """The number of a mask's cells and their positions' covariance (``np.cov``'s: rows,
+    columns, and between; n - 1 in the denominator), in two passes over the mask: the
+    positions were gathered, stacked and multiplied by numpy calls costing more than the
+    arithmetic."""
+    rows, cols = patch.shape
+    n, sy, sx = 0, 0, 0
+    for y in range(rows):
+        for x in range(cols):
+            if patch[y, x]:
+                n, sy, sx = n + 1, sy + y, sx + x
+    if n < 2:
+        return n, 0.0, 0.0, 0.0
+    my, mx = sy / n, sx / n
+    syy = sxx = sxy = 0.0
+    for y in range(rows):
+        for x in range(cols):
+            if patch[y, x]:
+                dy, dx = y - my, x - mx
+                syy, sxx, sxy = syy + dy * dy, sxx + dx * dx, sxy + dy * dx
+    return n, syy / (n - 1), sxx / (n - 1), sxy / (n - 1)
 
 
 def frame_share(patch: np.ndarray, reach: float) -> float:
@@ -292,12 +318,23 @@ def frame_share(patch: np.ndarray, reach: float) -> float:
     >>> frame_share(patch, 3.0)
     0.75
     """
-    ys, xs = np.nonzero(patch)
-    if len(ys) == 0:
-        return 0.0
+    cells, near = _near_frame(patch, reach)
+    return near / cells if cells else 0.0
+
+
+@kernel
+def _near_frame(patch: np.ndarray, reach: float) -> tuple[int, int]:
+    """How many cells the mask holds, and how many of them lie less than ``reach`` cells
+    from the frame: one pass, where gathering the positions cost more than counting."""
     rows, cols = patch.shape
-    near = (np.minimum(ys, rows - 1 - ys) < reach) | (np.minimum(xs, cols - 1 - xs) < reach)
-    return float(near.mean())
+    cells = near = 0
+    for y in range(rows):
+        for x in range(cols):
+            if patch[y, x]:
+                cells += 1
+                if min(y, rows - 1 - y) < reach or min(x, cols - 1 - x) < reach:
+                    near += 1
+    return cells, near
 
 
 _FRAME_REACH = 1.5
@@ -361,18 +398,30 @@ def _settle(
     Started from the whole patch's centre, not the top's: along a wide patch (a bed in a view
     with nothing in it, a long vein) the top wanders with the sensor noise and the disc
     settles wherever it was let go, the patch's centre stays put."""
+    return _mean_shift(support, np.float32(base), y, x, radius)
+
+
+@kernel
+def _mean_shift(
+    support: np.ndarray, base: np.float32, y: float, x: float, radius: float
+) -> tuple[float, float]:
+    """:func:`_settle`'s steps in one compiled loop: each window was a dozen numpy calls."""
     rows, cols = support.shape
     reach = math.ceil(radius) + 1
+    zero = np.float32(0.0)
     for _ in range(_SETTLE):
         y0, y1 = max(0, round(y) - reach), min(rows, round(y) + reach + 1)
         x0, x1 = max(0, round(x) - reach), min(cols, round(x) + reach + 1)
-        ys, xs = np.mgrid[y0:y1, x0:x1]
-        inside = (ys - y) ** 2 + (xs - x) ** 2 <= radius * radius
-        weight = np.clip(support[y0:y1, x0:x1] - base, 0.0, None) * inside
-        total = float(weight.sum())
+        total, wy, wx = zero, 0.0, 0.0
+        for r in range(y0, y1):
+            for c in range(x0, x1):
+                if (r - y) ** 2 + (c - x) ** 2 <= radius * radius:
+                    weight = max(support[r, c] - base, zero)
+                    total += weight
+                    wy, wx = wy + r * weight, wx + c * weight
         if total <= 0.0:
             break
-        ny, nx = float((ys * weight).sum()) / total, float((xs * weight).sum()) / total
+        ny, nx = wy / total, wx / total
         done = abs(ny - y) + abs(nx - x) < 0.05
         y, x = ny, nx
         if done:

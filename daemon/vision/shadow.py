@@ -299,8 +299,9 @@ def _against(mine: tuple, own: float, host: tuple, lin: tuple, u: tuple) -> tupl
     if darkness <= 0.0:  # not darker than this rock: no evidence, whatever the colour
         return 0.0, 0.0
     darker = _clip01(own / ((lin[0] + lin[1] + lin[2]) / 3.0 + 1e-3))
-    red = math.log(lin[2] * darker + _OFFSET)
-    db, dg = math.log(lin[0] * darker + _OFFSET) - red, math.log(lin[1] * darker + _OFFSET) - red
+    red = lin[2] * darker + _OFFSET  # log ratios to red: two logarithms where three were
+    db = math.log((lin[0] * darker + _OFFSET) / red)
+    dg = math.log((lin[1] * darker + _OFFSET) / red)
     along = mine[1] - (db * u[0] + dg * u[1])
     across = mine[2] - (dg * u[0] - db * u[1])
     purity = 1.0 - abs(across) / (abs(along) * _CONE[1] + _CONE[0])
@@ -349,6 +350,9 @@ def _shade_kernel(logs: tuple, lin: tuple, u: tuple, d: int) -> tuple[np.ndarray
                 for dy, dx in ((0, d), (0, -d), (d, 0), (-d, 0)):
                     sy, sx = min(max(y - dy, 0), rows - 1), min(max(x - dx, 0), cols - 1)
                     side = (host[sy, sx, 0], host[sy, sx, 1], host[sy, sx, 2])
+                    bound = _clip01(mine[0] + (side[0] + side[1] + side[2]) / (3.0 * _DARK))
+                    if bound <= best[0] and bound <= best[1]:
+                        continue  # its evidence is at most its darkness: it cannot be better
                     side_lin = (host_lin[sy, sx, 0], host_lin[sy, sx, 1], host_lin[sy, sx, 2])
                     other = _against(mine, own_lin[y, x], side, side_lin, u)
                     best = (max(best[0], other[0]), max(best[1], other[1]))

@@ -222,5 +222,19 @@ def _mahalanobis(x: np.ndarray, mean: np.ndarray, cov: np.ndarray) -> np.ndarray
     """Squared Mahalanobis distances of the rows of ``x``, float32."""
     values, vectors = np.linalg.eigh(cov)
     whiten = (vectors / np.sqrt(np.maximum(values, 1e-12))).astype(np.float32)
-    z = _centred(x, mean.astype(np.float32)) @ whiten
-    return np.einsum("ij,ij->i", z, z)
+    return _row_norms(_centred(x, mean.astype(np.float32)) @ whiten)
+
+
+@kernel
+def _row_norms(z: np.ndarray) -> np.ndarray:
+    """The squared norm of each row of ``z`` (float32, summed in order): numpy's
+    ``einsum("ij,ij->i")`` went row by row over a few columns at a time, slowly."""
+    rows, dims = z.shape
+    out = np.empty(rows, np.float32)
+    for i in range(rows):
+        row = z[i]
+        total = np.float32(0.0)
+        for j in range(dims):
+            total += row[j] * row[j]
+        out[i] = total
+    return out
