@@ -6,7 +6,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: demo rig test bench bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security bench-printed bench-novelty bench-targets bench-sizes bench-aims bench-archive bench-nodata bench-mosaic bench-chips bench-stages lint clean
+.PHONY: demo rig test bench bench-quality bench-heldout bench-camera bench-real bench-real-jpeg bench-approach bench-speed bench-ptu bench-survey bench-bus bench-field bench-record bench-edges bench-console bench-operator bench-security bench-printed bench-novelty bench-targets bench-sizes bench-aims bench-archive bench-nodata bench-mosaic bench-chips bench-stages bench-ab lint clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -100,6 +100,10 @@ bench-chips: $(STAMP)
 # CPU ms per stage of `default` on real images and the seed's 108x192 mosaic (where the time goes).
 bench-stages: $(STAMP)
 	$(PY) -m bench.stages
+
+# Paired CPU-time A/B against another tree with its own venv: make bench-ab BEFORE=../old-tree
+bench-ab: $(STAMP)
+	$(PY) -m bench.ab --before $(BEFORE)
 
 bench-edges: $(STAMP)
 	$(PY) -m bench.edges

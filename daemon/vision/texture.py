@@ -74,8 +74,7 @@ def descriptors(bgr: np.ndarray, scales: tuple[float, ...], surround: float) -> 
         blurred = fine if sigma == scales[0] else grid.expand(*grid.surround(moments, sigma), shape)
         _contrast(blurred, feats, k)
     around = grid.expand(*grid.surround(ratio, surround), shape)
-    _likest_side(fine, around, round(surround), feats, len(scales))
-    feats[:, :, -2:] = fine[:, :, 2:4]  # chroma
+    _likest_side(fine, around, round(surround), feats, len(scales))  # and the chroma
     return feats
 
 
@@ -115,7 +114,8 @@ def _likest_side(
 ) -> None:
     """``feats[..., k]``: own - around, own the log brightness (``fine``'s channel 4), with
     ``around`` taken where it is likest own: centred, or ``reach`` pixels up, down, left or
-    right (the edge repeated beyond the frame); the first likest in that order.
+    right (the edge repeated beyond the frame); the first likest in that order. The chroma
+    (``fine``'s channels 2 and 3) goes to ``feats[..., k + 1 :]`` in the same pass.
 
     Next to a step between two common surfaces (a bed contact, the sky's edge, a rock's
     lit side against its shadow) the centred surround mixes both and every pixel there
@@ -139,6 +139,7 @@ def _likest_side(
                 if here < gap:
                     best, gap = own - side, here
             feats[y, x, k] = best
+            feats[y, x, k + 1], feats[y, x, k + 2] = fine[y, x, 2], fine[y, x, 3]
 
 
 def texture_rarity(bgr: np.ndarray, params: VisionParams) -> np.ndarray:

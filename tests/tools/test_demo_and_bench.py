@@ -5,12 +5,15 @@ from __future__ import annotations
 import json
 import math
 import re
+import sys
+from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
 
 from bench import (
+    ab,
     approach,
     browser,
     bus,
@@ -305,6 +308,18 @@ def test_real_benchmark_smoke_on_the_real_data():
 def test_speed_benchmark_smoke():
     rows = speed.run(sizes={"tiny": (54, 96)}, repeats=1)
     assert rows[0]["name"] == "tiny" and rows[0]["ms"] > 0 and rows[0]["floor_ms"] > 0
+
+
+def test_ab_benchmark_times_each_image_in_both_trees_in_turn(tmp_path, monkeypatch, capsys):
+    """Two real analysis processes (here of one tree), the same images, one ratio per image."""
+    monkeypatch.setenv("CYBORG_REAL_DATA", str(tmp_path))  # no real images: the cliffs only
+    tree = Path(ab.__file__).resolve().parents[1]
+    argv = ["--before", str(tree), "--python", sys.executable, "--seed-scenes", "2"]
+    assert ab.main([*argv, "--repeats", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "no real images" in out and "real images (" not in out
+    pattern = r"the seed's 108x192 \(2\): before median [\d.]+ .* per image median [\d.]+"
+    assert re.search(pattern, out)
 
 
 def test_ptu_benchmark_smoke(capsys):
