@@ -217,7 +217,7 @@ async def run(cfg: Config, ready_stream: TextIO | None = None) -> int:
                 event=service.event,
             ),
         )
-        stack.push_async_callback(_bounded, survey.cancel("the daemon is stopping"), "survey")
+        stack.push_async_callback(_bounded, survey.stop("the daemon is stopping"), "survey")
         commands = Commands(
             rig,
             survey,

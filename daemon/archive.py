@@ -144,10 +144,14 @@ class Station:
             self.save()
         return written
 
+    def discard_partial(self) -> None:
+        """Remove what an unfinished drawing of the products left."""
+        shutil.rmtree(self.partial_dir, ignore_errors=True)
+
     def finish(self, status: str, reason: str = "") -> None:
         if status not in FINAL_STATES:
             raise ValueError(f"not a final station status: {status!r}")
-        shutil.rmtree(self.partial_dir, ignore_errors=True)
+        self.discard_partial()
         self.update(status=status, reason=reason, finished=_now())
 
 

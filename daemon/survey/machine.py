@@ -101,6 +101,7 @@ class Survey:
         self.station: Station | None = None
         self.last_error = ""
         self._task: asyncio.Task[None] | None = None
+        self._drawings: set[asyncio.Task[None]] = set()
         self._approach = Approach()
         self._result: InterestResult | None = None
         self._analysis_estimate = 1.0
@@ -185,6 +186,17 @@ class Survey:
             await task
         return True
 
+    async def stop(self, reason: str) -> None:
+        """The daemon is stopping: cancel the station, and let products still being drawn
+        for an ended one finish (the caller bounds the wait; what is left is cancelled)."""
+        await self.cancel(reason)
+        try:
+            if self._drawings:
+                await asyncio.wait(set(self._drawings))
+        finally:
+            for task in self._drawings:
+                task.cancel()
+
     async def choose(self, msg: ChooseTarget, by: str) -> str:
         """Record the operator's choice; aim the next station at it, one leg closer."""
         result, station = self._result, self.station
@@ -242,6 +254,7 @@ class Survey:
         shots = Acquisition(self.rig, self.cfg.settle, timing, self._progress)
         previous = self._approach.previous(self.cfg)
         drawing: asyncio.Task[AnalysisResult] | None = None
+        later: ProductsJob | None = None  # what the drawing draws, to draw again if stopped
         try:
             mosaic, rest = await shots.tiles(station, geometry, self._analysis_estimate)
             if previous is not None:
@@ -271,8 +284,9 @@ class Survey:
                 mosaic, analysed = await self._seams_off(station, shots.stitcher, job, analysed)
             timing["analysis_s"] = self._analysis_estimate = time.perf_counter() - ta
             # The worker draws and writes the products while the head goes to the chips.
+            later = analysed.products
             drawing = asyncio.create_task(
-                self._products(analysed.products, timing), name="cyborgd.survey.products"
+                self._products(later, timing), name="cyborgd.survey.products"
             )
             found = interest_points(analysed.result, geometry, self.orientation, mosaic)
             points = await asyncio.to_thread(
@@ -302,16 +316,17 @@ class Survey:
             )
         except asyncio.CancelledError as exc:
             reason = str(exc.args[0]) if exc.args else "cancelled"
-            await self._abandon(station, "incomplete", reason, timing, t0, drawing=drawing)
+            ended = (drawing, later)
+            await self._abandon(station, "incomplete", reason, timing, t0, products=ended)
             raise
         except (PtuError, CameraError, WorkerError, OSError, ValueError, TimeoutError) as exc:
             text = _describe(exc)
-            await self._abandon(station, "failed", text, timing, t0, drawing=drawing)
+            await self._abandon(station, "failed", text, timing, t0, products=(drawing, later))
             self.tel.event("error", f"station {self.station_id} failed: {text}")
         except Exception as exc:  # a bug: fail the station, keep the daemon
             _LOGGER.exception("station %s", self.station_id)
             await self._abandon(
-                station, "failed", f"internal error: {exc!r}", timing, t0, drawing=drawing
+                station, "failed", f"internal error: {exc!r}", timing, t0, products=(drawing, later)
             )
             self.tel.event("error", f"station {self.station_id} failed: internal error {exc!r}")
 
@@ -351,14 +366,17 @@ class Survey:
         timing: dict[str, float],
         t0: float,
         *,
-        drawing: asyncio.Task[AnalysisResult] | None = None,
+        products: tuple[asyncio.Task[AnalysisResult] | None, ProductsJob | None] = (None, None),
     ) -> None:
         """End a station short, the head halted first. Products the worker already wrote
-        are kept, as the points are; a drawing still under way is stopped (its worker
-        replaced, as a cancelled analysis's) before the partial analysis is removed."""
+        are kept, as the points are; a drawing still under way (``products``: its task and
+        its job) is stopped (its worker replaced, as a cancelled analysis's) and drawn again
+        once the station has ended (:meth:`_draw_again`): nothing the science found is lost
+        to a HALT."""
         self.state, self.last_error = SurveyState.IDLE, reason if status == "failed" else ""
         with contextlib.suppress(PtuError, OSError, TimeoutError):
             await asyncio.shield(self.rig.ptu.halt())
+        drawing, later = products
         drawn = None if drawing is None else await _finished(drawing)
         timing["wall_s"] = time.perf_counter() - t0
         try:
@@ -371,6 +389,30 @@ class Survey:
             _LOGGER.error("station %s: cannot update the manifest: %s", station.name, exc)
         await asyncio.shield(update_report(station))
         self._progress(status, 0, 0, None)
+        if drawing is not None and drawn is None and later is not None:
+            task = asyncio.create_task(
+                self._draw_again(station, self.station_id, later),
+                name="cyborgd.survey.products-again",
+            )
+            self._drawings.add(task)
+            task.add_done_callback(self._drawings.discard)
+
+    async def _draw_again(self, station: Station, name: str, job: ProductsJob) -> None:
+        """Draw the products of a station that ended while they were drawn, on the worker
+        that replaced the stopped one; publish them and write the report again. The next
+        station's analysis waits behind it for the worker (about as long as the products
+        take); a HALT does not stop it, as it moves nothing."""
+        try:
+            analysis = await self.worker.call(job)
+            station.publish_analysis()
+            station.update(products=analysis.products)
+        except (WorkerError, OSError) as exc:
+            with contextlib.suppress(OSError):
+                await asyncio.to_thread(station.discard_partial)
+            self.tel.event("warning", f"station {name}: its products could not be drawn: {exc}")
+            return
+        await update_report(station)
+        self.tel.event("info", f"station {name}: its products were drawn after it ended")
 
 
 @contextlib.asynccontextmanager

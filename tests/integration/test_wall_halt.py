@@ -1,10 +1,12 @@
 """HALT while the head goes to the chips and the worker still draws the analysis's products:
 answered at once, the head stops, the drawing stops with its worker, the station is
-incomplete with nothing half-written, and the next station completes (a real daemon, a real
-worker, frozen so that its drawing cannot finish first)."""
+incomplete with nothing half-written, its products are drawn again by the worker that
+replaced the stopped one, and the next station completes (a real daemon, a real worker,
+frozen so that its drawing cannot finish first)."""
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import json
 import os
@@ -57,11 +59,20 @@ async def test_halt_while_the_products_are_drawn_stops_the_head_and_the_drawing(
     folder = archive / station
     manifest = json.loads((folder / "manifest.json").read_text())
     assert manifest["status"] == "incomplete" and manifest["points"]
-    assert not (folder / ".analysis.partial").exists() and not (folder / "analysis").exists()
-    assert "products" not in manifest
+    assert "products" not in manifest  # the stopped drawing published nothing half-written
+    assert len(manifest["tiles"]) == 6 and "mosaic.png" in manifest["files"]
+    async with asyncio.timeout(120):  # the replacement worker draws them again
+        while "products" not in manifest:
+            await asyncio.sleep(0.2)
+            manifest = json.loads((folder / "manifest.json").read_text())
+    assert manifest["status"] == "incomplete"  # ended as it ended; nothing the science found lost
+    assert not (folder / ".analysis.partial").exists()
+    assert manifest["products"]["overlay"] == "overlay.png"
+    drawn = json.loads((folder / "analysis" / "result.json").read_text())
+    assert len(drawn["points"]) == len(manifest["points"])  # the analysis the points came from
     for rel, size in manifest["files"].items():
         assert (folder / rel).stat().st_size == size, rel
-    assert len(manifest["tiles"]) == 6 and "mosaic.png" in manifest["files"]
+    assert "analysis/overlay.png" in manifest["files"]
     result = await run_station(client, progress, results, SurveyStart(rows=1, cols=2))
     assert len(result.points) == 3
     assert daemon.proc.returncode is None

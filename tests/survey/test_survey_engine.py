@@ -1,14 +1,17 @@
 """The survey engine in-process (emulated PTU, simulated camera, a real worker process):
 a full disk and a camera that fails mid-survey fail the station cleanly and keep what
-was written."""
+was written; a station cancelled while its products are drawn gets them drawn again."""
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import dataclasses
 import errno
 import json
+import os
 import re
+import signal
 from pathlib import Path
 from typing import Any
 
@@ -63,7 +66,7 @@ async def _engine(
         try:
             yield survey, rec, archive
         finally:
-            await survey.cancel("test over")
+            await survey.stop("test over")
             await ptu.close()
 
 
@@ -132,6 +135,36 @@ async def test_full_disk_fails_the_station_and_keeps_what_was_written(
     survey.start(SurveyStart(rows=1, cols=2), "tester")
     await survey._task
     assert survey.state == "awaiting-choice" and len(rec.results) == 1
+
+
+async def test_a_station_cancelled_while_its_products_are_drawn_gets_them_drawn_again(
+    engine,
+) -> None:
+    survey, rec, _ = engine
+    survey.start(SurveyStart(rows=2, cols=3, downsample=1.0), "tester")  # slow products
+    async with asyncio.timeout(60):
+        while not any(p.stage == "chips" for p in rec.progress):
+            await asyncio.sleep(0.01)
+    drawer = survey.worker.pid
+    os.kill(drawer, signal.SIGSTOP)  # the drawing cannot finish before the cancel
+    try:
+        assert await survey.cancel("the scientist cancels")
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(drawer, signal.SIGCONT)
+    assert survey.worker.pid not in (0, drawer)  # the drawing's worker was replaced
+    folder = survey.station.folder
+    assert "products" not in json.loads((folder / "manifest.json").read_text())
+    await survey.stop("the daemon is stopping")  # waits for the products drawn again
+    m = json.loads((folder / "manifest.json").read_text())
+    assert m["status"] == "incomplete" and m["points"]
+    assert m["products"]["overlay"] == "overlay.png" and (folder / "analysis/overlay.png").exists()
+    assert not (folder / ".analysis.partial").exists()
+    for rel, size in m["files"].items():
+        assert (folder / rel).stat().st_size == size, rel
+    assert ("info", f"station {survey.station_id}: its products were drawn after it ended") in (
+        rec.events
+    )
 
 
 async def test_camera_failure_mid_survey_fails_the_station(engine, monkeypatch) -> None:
