@@ -16,7 +16,7 @@ import math
 import cv2
 import numpy as np
 
-__all__ = ["block_means", "expand", "grid_blur", "reduce_to", "surround"]
+__all__ = ["block_means", "expand", "grid_blur", "reduce_to", "surround", "surround_grid"]
 
 _SURROUND_GRID = 2
 """Block size of a surround's grid: 2 x 2 keeps a sigma-4 blur within 1 % of the exact one."""
@@ -84,8 +84,14 @@ def surround(image: np.ndarray, sigma: float) -> tuple[np.ndarray, int]:
     >>> bool(np.abs(expand(wide, f, img.shape) - exact).max() < 0.01)
     True
     """
-    f = _SURROUND_GRID if sigma >= _MIN_SURROUND and min(image.shape[:2]) >= 16 else 1
+    f = surround_grid(image.shape, sigma)
     return grid_blur(block_means(image, f), sigma, f), f
+
+
+def surround_grid(shape: tuple[int, ...], sigma: float) -> int:
+    """The block size :func:`surround` blurs an image of this shape on at this sigma: 2 for a
+    wide surround, 1 (full resolution) for a narrow one or a small image."""
+    return _SURROUND_GRID if sigma >= _MIN_SURROUND and min(shape[:2]) >= 16 else 1
 
 
 def reduce_to(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:

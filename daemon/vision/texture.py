@@ -65,13 +65,22 @@ def descriptors(bgr: np.ndarray, scales: tuple[float, ...], surround: float) -> 
     grey = cv2.extractChannel(opponent, 0)
     ratio = cv2.log(grey + _FLOOR)  # brightness against the surroundings is a ratio
     # Centred on the image's mean: E[I^2] - E[I]^2 in float32 cancels badly on bright rock.
-    moments, planes = _planes(opponent, np.float32(cv2.mean(grey)[0]), ratio)
+    planes = _planes(opponent, np.float32(cv2.mean(grey)[0]), ratio)
     shape = grey.shape
     # Mean and mean square of the intensity at the finest scale, chroma and log brightness.
     fine = cv2.GaussianBlur(planes, (0, 0), scales[0])
     feats = np.empty((*shape, len(scales) + 3), np.float32)
+    blocks = None  # the moments' 2 x 2 means, made once for the wide scales
     for k, sigma in enumerate(scales):
-        blurred = fine if sigma == scales[0] else grid.expand(*grid.surround(moments, sigma), shape)
+        if sigma == scales[0]:
+            blurred = fine
+        elif (f := grid.surround_grid(shape, sigma)) == 2:
+            blocks = _moment_blocks(planes) if blocks is None else blocks
+            blurred = grid.expand(grid.grid_blur(blocks, sigma, f), f, shape)
+        else:
+            blurred = grid.expand(
+                *grid.surround(np.ascontiguousarray(planes[..., :2]), sigma), shape
+            )
         _contrast(blurred, feats, k)
     around = grid.expand(*grid.surround(ratio, surround), shape)
     _likest_side(fine, around, round(surround), feats, len(scales))  # and the chroma
@@ -79,22 +88,41 @@ def descriptors(bgr: np.ndarray, scales: tuple[float, ...], surround: float) -> 
 
 
 @kernel
-def _planes(opponent: np.ndarray, mean: np.float32, ratio: np.ndarray) -> tuple:
-    """(M, N, 2) the intensity (``opponent``'s channel 0) less ``mean`` and its square, and
-    (M, N, 5) those, the two chroma channels and ``ratio``: float32, in one pass where
-    splitting, subtracting, squaring and merging took six."""
+def _planes(opponent: np.ndarray, mean: np.float32, ratio: np.ndarray) -> np.ndarray:
+    """(M, N, 5) the intensity (``opponent``'s channel 0) less ``mean``, its square, the two
+    chroma channels and ``ratio``: float32, in one pass where splitting, subtracting,
+    squaring and merging took six."""
     rows, cols = ratio.shape
-    moments = np.empty((rows, cols, 2), np.float32)
     planes = np.empty((rows, cols, 5), np.float32)
     for y in range(rows):  # by rows: the inner loop runs over one row's memory
-        src, level, two, five = opponent[y], ratio[y], moments[y], planes[y]
+        src, level, five = opponent[y], ratio[y], planes[y]
         for x in range(cols):
             centred = src[x, 0] - mean
-            square = centred * centred
-            two[x, 0], two[x, 1] = centred, square
-            five[x, 0], five[x, 1], five[x, 2] = centred, square, src[x, 1]
+            five[x, 0], five[x, 1], five[x, 2] = centred, centred * centred, src[x, 1]
             five[x, 3], five[x, 4] = src[x, 2], level[x]
-    return moments, planes
+    return planes
+
+
+@kernel
+def _moment_blocks(planes: np.ndarray) -> np.ndarray:
+    """``grid.block_means`` of ``planes``' first two channels (the centred intensity and its
+    square) over 2 x 2 blocks, bit for bit, without their full-size copy: the last row and
+    column mirrored past the frame as it pads (reflect-101), each block summed in the order
+    OpenCV's area reduction of two channels sums it."""
+    rows, cols = planes.shape[:2]
+    out = np.empty(((rows + 1) // 2, (cols + 1) // 2, 2), np.float32)
+    quarter = np.float32(0.25)
+    for by in range(out.shape[0]):
+        y0 = 2 * by
+        y1 = y0 + 1 if y0 + 1 < rows else rows - 2
+        for bx in range(out.shape[1]):
+            x0 = 2 * bx
+            x1 = x0 + 1 if x0 + 1 < cols else cols - 2
+            for k in range(2):
+                total = planes[y0, x0, k] + planes[y0, x1, k]
+                total = (total + planes[y1, x0, k]) + planes[y1, x1, k]
+                out[by, bx, k] = total * quarter
+    return out
 
 
 @kernel

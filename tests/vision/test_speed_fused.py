@@ -1,6 +1,7 @@
 """The one-pass kernels of ``default``'s speed work give what the passes they replace gave, bit
 for bit: the layers' cores and discounts, the uncommon map's lookups, the shadow gate's thin
-dark lines and its last maximum, and the segmentation's class areas."""
+dark lines, its last maximum and its lit rock's block means, texture's block means of its
+moments, and the segmentation's class areas."""
 
 from __future__ import annotations
 
@@ -11,8 +12,9 @@ import numpy as np
 import pytest
 
 from cyborg.daemon.sim.scene import outcrop_scene
-from cyborg.daemon.vision import layers, segment, shadow
+from cyborg.daemon.vision import layers, segment, shadow, texture
 from cyborg.daemon.vision.cooccurrence import Segmentation
+from cyborg.daemon.vision.grid import block_means
 from cyborg.daemon.vision.params import DEFAULT, PAPER
 from cyborg.daemon.vision.pipeline import analyze
 from cyborg.daemon.vision.uncommon import uncommon_map, uncommon_values, value_rarity
@@ -121,6 +123,25 @@ def test_the_shadow_gates_lines_and_maximum_are_the_index_expressions(level: flo
     masked = untinted.copy()
     masked[lines > 0] = 0.0
     assert _same(shadow._either(tinted, untinted, lines), cv2.max(tinted, masked))
+
+
+def test_the_lit_rocks_block_means_are_the_weighted_copys() -> None:
+    rng = np.random.default_rng(8)
+    for _ in range(24):  # odd and even sides: the padding's mirrored row and column too
+        rows, cols = (int(v) for v in rng.integers(16, 160, 2))
+        logs = rng.normal(3.0, 1.0, (rows, cols, 3)).astype(np.float32)
+        brightness, level = (rng.normal(0.0, 0.2, (rows, cols)).astype(np.float32) for _ in "bl")
+        expected = block_means(shadow._lit_weighted(logs, brightness, level), 2)
+        assert _same(shadow._lit_blocks(logs, brightness, level), expected)
+
+
+def test_textures_moment_blocks_are_the_block_means_of_its_moments() -> None:
+    rng = np.random.default_rng(9)
+    for _ in range(24):
+        rows, cols = (int(v) for v in rng.integers(16, 160, 2))
+        planes = rng.normal(0.0, 1.0, (rows, cols, 5)).astype(np.float32)
+        expected = block_means(np.ascontiguousarray(planes[..., :2]), 2)
+        assert _same(texture._moment_blocks(planes), expected)
 
 
 def test_the_class_areas_are_one_count_per_class() -> None:
