@@ -16,7 +16,17 @@ import math
 import cv2
 import numpy as np
 
-__all__ = ["block_means", "expand", "grid_blur", "reduce_to", "surround", "surround_grid"]
+from .kernels import kernel
+
+__all__ = [
+    "block_means",
+    "block_pair",
+    "expand",
+    "grid_blur",
+    "reduce_to",
+    "surround",
+    "surround_grid",
+]
 
 _SURROUND_GRID = 2
 """Block size of a surround's grid: 2 x 2 keeps a sigma-4 blur within 1 % of the exact one."""
@@ -44,6 +54,16 @@ def block_means(image: np.ndarray, f: int) -> np.ndarray:
     return cv2.resize(
         image, (image.shape[1] // f, image.shape[0] // f), interpolation=cv2.INTER_AREA
     )
+
+
+@kernel
+def block_pair(i: int, n: int) -> tuple[int, int]:
+    """The two indices along a side of ``n`` that 2 x 2 block ``i`` of :func:`block_means`
+    averages: 2i and 2i + 1, the second mirrored back to n - 2 past the end as its padding
+    mirrors it (reflect-101); for a kernel that makes the block means without the padded
+    copy."""
+    first = 2 * i
+    return first, first + 1 if first + 1 < n else n - 2
 
 
 def grid_blur(

@@ -60,7 +60,7 @@ import cv2
 import numpy as np
 
 from .exact import exact
-from .grid import block_means, expand, grid_blur, surround, surround_grid
+from .grid import block_means, block_pair, expand, grid_blur, surround, surround_grid
 from .kernels import kernel
 from .params import VisionParams
 
@@ -228,20 +228,18 @@ def _lit_mean(
 @kernel
 def _lit_blocks(logs: np.ndarray, brightness: np.ndarray, level: np.ndarray) -> np.ndarray:
     """``block_means(_lit_weighted(...), 2)`` in one pass, bit for bit: each 2 x 2 block's
-    four values (the last row and column mirrored past the frame as ``block_means`` pads,
-    reflect-101) summed as OpenCV's area reduction of four channels sums them."""
+    four values (``block_pair``) summed as OpenCV's area reduction of four channels sums
+    them."""
     rows, cols = brightness.shape
     out = np.empty(((rows + 1) // 2, (cols + 1) // 2, 4), np.float32)
     quarter, zero = np.float32(0.25), np.float32(0.0)
     block = np.empty((2, 2, 4), np.float32)
     for by in range(out.shape[0]):
-        y0 = 2 * by
-        y1 = y0 + 1 if y0 + 1 < rows else rows - 2
+        ys = block_pair(by, rows)
         for bx in range(out.shape[1]):
-            x0 = 2 * bx
-            x1 = x0 + 1 if x0 + 1 < cols else cols - 2
-            for i, y in enumerate((y0, y1)):
-                for j, x in enumerate((x0, x1)):
+            xs = block_pair(bx, cols)
+            for i, y in enumerate(ys):
+                for j, x in enumerate(xs):
                     lit = brightness[y, x] - level[y, x] > np.float32(-_LIT)
                     for k in range(3):
                         block[i, j, k] = logs[y, x, k] if lit else zero

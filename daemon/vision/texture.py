@@ -106,18 +106,16 @@ def _planes(opponent: np.ndarray, mean: np.float32, ratio: np.ndarray) -> np.nda
 @kernel
 def _moment_blocks(planes: np.ndarray) -> np.ndarray:
     """``grid.block_means`` of ``planes``' first two channels (the centred intensity and its
-    square) over 2 x 2 blocks, bit for bit, without their full-size copy: the last row and
-    column mirrored past the frame as it pads (reflect-101), each block summed in the order
-    OpenCV's area reduction of two channels sums it."""
+    square) over 2 x 2 blocks, bit for bit, without their full-size copy: each block's four
+    values (``grid.block_pair``) summed in the order OpenCV's area reduction of two channels
+    sums them."""
     rows, cols = planes.shape[:2]
     out = np.empty(((rows + 1) // 2, (cols + 1) // 2, 2), np.float32)
     quarter = np.float32(0.25)
     for by in range(out.shape[0]):
-        y0 = 2 * by
-        y1 = y0 + 1 if y0 + 1 < rows else rows - 2
+        y0, y1 = grid.block_pair(by, rows)
         for bx in range(out.shape[1]):
-            x0 = 2 * bx
-            x1 = x0 + 1 if x0 + 1 < cols else cols - 2
+            x0, x1 = grid.block_pair(bx, cols)
             for k in range(2):
                 total = planes[y0, x0, k] + planes[y0, x1, k]
                 total = (total + planes[y1, x0, k]) + planes[y1, x1, k]
